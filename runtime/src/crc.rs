@@ -1,0 +1,36 @@
+//! The checksums the protocols share, taken from the `crc` crate's catalogue (table driven).
+
+use ::crc::{Crc, Digest, Table, CRC_16_MCRF4XX};
+
+/// CRC-16/MCRF4XX: poly 0x1021 reflected, init 0xFFFF, no final xor. MAVLink's checksum and
+/// NDLCom's FCS. `check("123456789") == 0x6F91`.
+pub const MCRF4XX: Crc<u16, Table<1>> = Crc::<u16, Table<1>>::new(&CRC_16_MCRF4XX);
+
+/// A running CRC-16/MCRF4XX.
+pub type Mcrf4xxDigest = Digest<'static, u16, Table<1>>;
+
+/// CRC-16/MCRF4XX of `data`.
+#[inline]
+pub fn mcrf4xx(data: &[u8]) -> u16 {
+    MCRF4XX.checksum(data)
+}
+
+/// A fresh running CRC-16/MCRF4XX.
+#[inline]
+pub fn mcrf4xx_digest() -> Mcrf4xxDigest {
+    MCRF4XX.digest()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn check_value() {
+        assert_eq!(mcrf4xx(b"123456789"), 0x6F91);
+        let mut d = mcrf4xx_digest();
+        d.update(b"1234");
+        d.update(b"56789");
+        assert_eq!(d.finalize(), 0x6F91);
+    }
+}

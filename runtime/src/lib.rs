@@ -1,0 +1,31 @@
+//! The Ferrolink runtime: everything generated bindings plug into.
+//!
+//! `no_std`, no allocation, no `unsafe`. Each protocol sits behind its own feature:
+//!
+//! | feature   | what it brings |
+//! |-----------|----------------|
+//! | `mavlink` | MAVLink v1/v2 frames, the backtracking stream parser, message signing |
+//! | `serde`   | serde support for generated types (pymavlink's `to_dict()` JSON form) |
+//! | `std`     | `std::error::Error` for the error types |
+//!
+//! Generated code only calls into this crate through [`wire`] (fixed-offset field access) and the
+//! traits of each protocol module, so the generated files stay thin and declarative.
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+#[cfg(feature = "std")]
+extern crate std;
+
+pub mod crc;
+#[cfg(feature = "mavlink")]
+pub mod mavlink;
+#[cfg(feature = "serde")]
+pub mod serde_helpers;
+pub mod wire;
+
+#[doc(hidden)]
+pub mod __private {
+    #[cfg(feature = "serde")]
+    pub use serde;
+}

@@ -1,0 +1,118 @@
+//! MAVLink: the contract generated dialects implement, plus frames, parsing and signing.
+//!
+//! A generated dialect provides one struct per message implementing [`Message`], and one enum of
+//! all messages implementing [`Dialect`], whose [`Dialect::META`] table (sorted by id) is all a
+//! parser or router needs to check and forward frames without decoding them.
+
+mod chars;
+mod enums;
+
+pub use chars::CharArray;
+
+/// The largest MAVLink payload.
+pub const MAX_PAYLOAD_LEN: usize = 255;
+
+/// A payload buffer large enough for any message.
+pub type PayloadBuf = [u8; MAX_PAYLOAD_LEN];
+
+/// One message type of a dialect, with its wire layout fixed at generation time.
+pub trait Message: Sized {
+    /// The message id (24 bits).
+    const ID: u32;
+    /// The wire name, e.g. `"HEARTBEAT"`.
+    const NAME: &'static str;
+    /// The seed mixed into the frame checksum; it changes when the base layout changes.
+    const CRC_EXTRA: u8;
+    /// Payload length of the base fields (what MAVLink 1 sends).
+    const MIN_LEN: usize;
+    /// Payload length including extension fields.
+    const MAX_LEN: usize;
+
+    /// Writes the whole payload (`MAX_LEN` bytes, not truncated) to the start of `buf` and
+    /// returns `MAX_LEN`.
+    fn encode(&self, buf: &mut PayloadBuf) -> usize;
+
+    /// Decodes a payload of any length: a short one is zero-filled, a long one is cut.
+    /// Decoding never fails; unknown enum values are kept as `Unknown(raw)`.
+    fn decode(payload: &[u8]) -> Self;
+}
+
+/// What a parser or router knows about a message id without decoding it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MessageMeta {
+    /// Message id.
+    pub id: u32,
+    /// Wire name.
+    pub name: &'static str,
+    /// CRC_EXTRA seed.
+    pub crc_extra: u8,
+    /// Base payload length.
+    pub min_len: u8,
+    /// Payload length with extensions.
+    pub max_len: u8,
+    /// Payload offset of `target_system`, if the message is addressed.
+    pub target_system: Option<u8>,
+    /// Payload offset of `target_component`, if present.
+    pub target_component: Option<u8>,
+}
+
+/// Looks `id` up in a table sorted by id.
+#[inline]
+pub fn find_meta(table: &[MessageMeta], id: u32) -> Option<&MessageMeta> {
+    table
+        .binary_search_by_key(&id, |m| m.id)
+        .ok()
+        .and_then(|i| table.get(i))
+}
+
+/// An id that the dialect does not define.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct UnknownMessageId(pub u32);
+
+impl core::fmt::Display for UnknownMessageId {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(f, "message id {} is not in this dialect", self.0)
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for UnknownMessageId {}
+
+/// All messages of one dialect, as one enum.
+pub trait Dialect: Sized {
+    /// Metadata of every message, sorted by id.
+    const META: &'static [MessageMeta];
+
+    /// Decodes the payload of message `id` (zero-filling or cutting it as [`Message::decode`]).
+    fn decode(id: u32, payload: &[u8]) -> Result<Self, UnknownMessageId>;
+
+    /// The message id.
+    fn id(&self) -> u32;
+
+    /// Writes the whole payload and returns its length (`MAX_LEN`).
+    fn encode(&self, buf: &mut PayloadBuf) -> usize;
+
+    /// Metadata of this message.
+    fn meta(&self) -> &'static MessageMeta {
+        match find_meta(Self::META, self.id()) {
+            Some(m) => m,
+            // Every variant's id is in META by construction of the generated code.
+            None => &UNKNOWN_META,
+        }
+    }
+
+    /// Metadata of message `id`, if the dialect has it.
+    fn meta_of(id: u32) -> Option<&'static MessageMeta> {
+        find_meta(Self::META, id)
+    }
+}
+
+static UNKNOWN_META: MessageMeta = MessageMeta {
+    id: u32::MAX,
+    name: "",
+    crc_extra: 0,
+    min_len: 0,
+    max_len: 0,
+    target_system: None,
+    target_component: None,
+};
