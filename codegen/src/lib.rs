@@ -1,1 +1,66 @@
-//! placeholder
+//! Ferrolink's generator: MAVLink XML dialects to Rust bindings for `ferrolink-runtime`.
+//!
+//! The pipeline, one module per stage:
+//!
+//! ```text
+//! frontend (parse, with spans) -> lower (IR: wire order, lengths, CRC_EXTRA)
+//!   -> check (diagnostics) -> backend (quote!) -> format (prettyplease) -> write (if changed)
+//! ```
+//!
+//! Use it from `build.rs` through [`Config`]:
+//!
+//! ```no_run
+//! // build.rs
+//! ferrolink_codegen::Config::new()
+//!     .input("definitions/mavlink/usv.xml")
+//!     .compile()
+//!     .unwrap_or_else(|e| panic!("{e}"));
+//! ```
+//!
+//! and include the result with `include!(concat!(env!("OUT_DIR"), "/ferrolink.rs"));`.
+#![forbid(unsafe_code)]
+
+pub mod backend;
+pub mod check;
+mod config;
+pub mod diag;
+pub mod format;
+pub mod frontend;
+pub mod ident;
+pub mod ir;
+pub mod lower;
+pub mod write;
+
+pub use config::{Config, Generated};
+pub use diag::{Diagnostic, Failed};
+
+use std::path::PathBuf;
+
+/// What the front half of the pipeline produces: the checked IR, every file read, and the
+/// warnings.
+#[derive(Debug)]
+pub struct Checked {
+    /// The IR.
+    pub ir: ir::Ir,
+    /// Every file read, includes too.
+    pub read: Vec<PathBuf>,
+    /// Warnings (errors make the run fail instead).
+    pub warnings: Vec<Diagnostic>,
+}
+
+/// Parses, lowers and checks `inputs`. Every problem is reported in one go.
+pub fn load(inputs: &[PathBuf]) -> Result<Checked, Failed> {
+    let mut diags = diag::Diagnostics::default();
+    let loaded = frontend::mavlink::load(inputs, &mut diags);
+    let read = loaded.paths().map(PathBuf::from).collect();
+    let ir = lower::lower(loaded);
+    check::check(&ir, &mut diags);
+    if diags.has_errors() {
+        return Err(Failed(diags.into_vec()));
+    }
+    Ok(Checked {
+        ir,
+        read,
+        warnings: diags.into_vec(),
+    })
+}

@@ -70,3 +70,39 @@ pub mod char {
         Ok(c.0[0])
     }
 }
+
+/// A `float` field shown as pymavlink shows it: the exact value as a double.
+pub mod f32 {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Serializes the exact value as an `f64`.
+    pub fn serialize<S: Serializer>(v: &f32, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_f64(f64::from(*v))
+    }
+
+    /// Deserializes a number, rounding to the nearest `f32`.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f32, D::Error> {
+        f64::deserialize(d).map(|v| v as f32)
+    }
+}
+
+/// `float[N]` fields as lists of exact doubles.
+pub mod f32_array {
+    use serde::ser::SerializeTuple;
+    use serde::{Deserializer, Serializer};
+
+    /// Serializes as a list of `f64`.
+    pub fn serialize<S: Serializer, const N: usize>(v: &[f32; N], s: S) -> Result<S::Ok, S::Error> {
+        let mut t = s.serialize_tuple(N)?;
+        for item in v {
+            t.serialize_element(&f64::from(*item))?;
+        }
+        t.end()
+    }
+
+    /// Deserializes a list of exactly `N` numbers.
+    pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f32; N], D::Error> {
+        let wide: [f64; N] = super::array::deserialize(d)?;
+        Ok(wide.map(|v| v as f32))
+    }
+}

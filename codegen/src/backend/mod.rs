@@ -1,0 +1,3 @@
+//! Backends: IR to source text.
+
+pub mod rust;

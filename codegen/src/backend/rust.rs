@@ -1,0 +1,492 @@
+//! The Rust backend: one module of tokens per dictionary file, built with `quote!`.
+//!
+//! Generated code is declarative: structs, consts, and straight-line calls into
+//! `ferrolink_runtime::wire` at constant offsets. Every path is absolute, so the output never
+//! depends on the user's imports. Formatting is done by [`crate::format`].
+
+use proc_macro2::{Ident, Literal, Span, TokenStream};
+use quote::quote;
+
+use crate::ir::{Deprecation, Enum, Field, Ir, Message, Module, Primitive};
+
+/// An identifier from a name that may be raw (`r#type`).
+pub fn ident(name: &str) -> Ident {
+    match name.strip_prefix("r#") {
+        Some(raw) => Ident::new_raw(raw, Span::call_site()),
+        None => Ident::new(name, Span::call_site()),
+    }
+}
+
+/// Doc attributes from free text, wrapped at about 100 columns.
+fn docs(text: &str) -> TokenStream {
+    let mut lines = Vec::new();
+    for para in text.split("\n\n") {
+        let mut line = String::new();
+        for word in para.split_whitespace() {
+            if !line.is_empty() && line.len() + word.len() > 96 {
+                lines.push(std::mem::take(&mut line));
+            }
+            if !line.is_empty() {
+                line.push(' ');
+            }
+            line.push_str(word);
+        }
+        if !line.is_empty() {
+            if !lines.is_empty() {
+                lines.push(String::new());
+            }
+            lines.push(line);
+        }
+    }
+    let lines = lines.into_iter().map(|l| format!(" {l}"));
+    quote! { #( #[doc = #lines] )* }
+}
+
+fn deprecated(d: &Option<Deprecation>) -> TokenStream {
+    let Some(d) = d else { return quote!() };
+    let mut note = String::new();
+    if d.superseded {
+        note.push_str("superseded");
+    } else {
+        note.push_str("deprecated");
+    }
+    if !d.replaced_by.is_empty() {
+        note.push_str(&format!(", replaced by {}", d.replaced_by));
+    }
+    if !d.note.is_empty() {
+        note.push_str(&format!(": {}", d.note));
+    }
+    if d.since.is_empty() {
+        quote!(#[deprecated(note = #note)])
+    } else {
+        let since = &d.since;
+        quote!(#[deprecated(since = #since, note = #note)])
+    }
+}
+
+fn primitive(p: Primitive) -> TokenStream {
+    match p {
+        Primitive::U8 | Primitive::Char => quote!(u8),
+        Primitive::I8 => quote!(i8),
+        Primitive::U16 => quote!(u16),
+        Primitive::I16 => quote!(i16),
+        Primitive::U32 => quote!(u32),
+        Primitive::I32 => quote!(i32),
+        Primitive::U64 => quote!(u64),
+        Primitive::I64 => quote!(i64),
+        Primitive::F32 => quote!(f32),
+        Primitive::F64 => quote!(f64),
+    }
+}
+
+fn lit(v: usize) -> Literal {
+    Literal::usize_unsuffixed(v)
+}
+
+/// Emits every module of `ir`, in order, as (module name, tokens).
+pub fn emit(ir: &Ir) -> Vec<(String, TokenStream)> {
+    (0..ir.modules.len())
+        .map(|i| (ir.modules[i].name.rust.clone(), emit_module(ir, i)))
+        .collect()
+}
+
+struct Ctx<'a> {
+    ir: &'a Ir,
+    module: usize,
+}
+
+impl Ctx<'_> {
+    /// The path of an item defined in module `m`, as seen from the current module.
+    fn item_path(&self, m: usize, name: &str) -> TokenStream {
+        let name = ident(name);
+        if m == self.module {
+            quote!(#name)
+        } else {
+            let module = ident(&self.ir.modules[m].name.rust);
+            quote!(super::#module::#name)
+        }
+    }
+
+    fn enum_of(&self, f: &Field) -> Option<&Enum> {
+        let name = f.enum_name.as_ref()?;
+        if !f.ty.primitive.is_integer() || f.ty.array.is_some() {
+            return None;
+        }
+        self.ir.enums.iter().find(|e| &e.name.wire == name)
+    }
+}
+
+fn emit_module(ir: &Ir, index: usize) -> TokenStream {
+    let module: &Module = &ir.modules[index];
+    let ctx = Ctx { ir, module: index };
+    let reexports = module.includes.iter().map(|&m| {
+        let name = ident(&ir.modules[m].name.rust);
+        quote!(pub use super::#name::*;)
+    });
+    let enums = module.enums.iter().map(|&e| emit_enum(&ir.enums[e]));
+    let messages = module
+        .messages
+        .iter()
+        .map(|m| emit_message(&ctx, m, module.version.unwrap_or(0)));
+    let dialect = emit_dialect(&ctx);
+    let mut text = format!(
+        "Messages and enums of `{}`, with everything it includes re-exported.",
+        module.path.rsplit('/').next().unwrap_or(&module.path)
+    );
+    if let Some(v) = module.version {
+        text.push_str(&format!(" Version {v}."));
+    }
+    let doc = docs(&text).into_iter().collect::<TokenStream>();
+    let inner_doc = inner(doc);
+    quote! {
+        #inner_doc
+        #( #reexports )*
+        #( #enums )*
+        #( #messages )*
+        #dialect
+    }
+}
+
+/// Turns outer doc attributes (`#[doc]`) into inner ones (`#![doc]`).
+fn inner(outer: TokenStream) -> TokenStream {
+    let mut out = TokenStream::new();
+    for tt in outer {
+        if let proc_macro2::TokenTree::Punct(p) = &tt {
+            if p.as_char() == '#' {
+                out.extend(quote!(#p !));
+                continue;
+            }
+        }
+        out.extend([tt]);
+    }
+    out
+}
+
+fn emit_enum(e: &Enum) -> TokenStream {
+    let name = ident(&e.name.rust);
+    let repr = primitive(e.repr);
+    let mut doc_text = e.description.clone();
+    doc_text.push_str(&format!("\n\nWire name: `{}`.", e.name.wire));
+    let doc = docs(&doc_text);
+    let dep = deprecated(&e.deprecated);
+    let entries = e.entries.iter().map(|entry| {
+        let variant = ident(&entry.name.rust);
+        let value = Literal::u64_unsuffixed(entry.value);
+        let mut text = entry.description.clone();
+        if entry.wip {
+            text.push_str("\n\nWork in progress: may change.");
+        }
+        text.push_str(&format!("\n\n`{}` = {}", entry.name.wire, entry.value));
+        let doc = docs(&text);
+        let dep = deprecated(&entry.deprecated);
+        if e.bitmask {
+            quote! { #doc #dep const #variant = #value; }
+        } else {
+            quote! { #doc #dep #variant = #value, }
+        }
+    });
+    if e.bitmask {
+        quote! {
+            ::ferrolink_runtime::mav_bitmask! {
+                #doc #dep
+                pub struct #name: #repr { #( #entries )* }
+            }
+        }
+    } else {
+        quote! {
+            ::ferrolink_runtime::mav_enum! {
+                #doc #dep
+                pub enum #name: #repr { #( #entries )* }
+            }
+        }
+    }
+}
+
+const SERDE: &str = "::ferrolink_runtime::__private::serde";
+
+fn serde_derive() -> TokenStream {
+    quote! {
+        #[cfg_attr(feature = "serde", derive(
+            ::ferrolink_runtime::__private::serde::Serialize,
+            ::ferrolink_runtime::__private::serde::Deserialize,
+        ))]
+    }
+}
+
+/// The field's Rust type and the `serde(with)` adapter it needs, if any.
+fn field_type(ctx: &Ctx<'_>, f: &Field) -> (TokenStream, Option<&'static str>) {
+    if let Some(e) = ctx.enum_of(f) {
+        return (ctx.item_path(e.module, &e.name.rust), None);
+    }
+    let p = f.ty.primitive;
+    match (p, f.ty.array) {
+        (Primitive::Char, Some(n)) => {
+            let n = lit(n.into());
+            (quote!(::ferrolink_runtime::mavlink::CharArray<#n>), None)
+        }
+        (Primitive::Char, None) => (quote!(u8), Some("::ferrolink_runtime::serde_helpers::char")),
+        (Primitive::F32, None) => (quote!(f32), Some("::ferrolink_runtime::serde_helpers::f32")),
+        (_, Some(n)) => {
+            let t = primitive(p);
+            let n = lit(n.into());
+            let with = if p == Primitive::F32 {
+                "::ferrolink_runtime::serde_helpers::f32_array"
+            } else {
+                "::ferrolink_runtime::serde_helpers::array"
+            };
+            (quote!([#t; #n]), Some(with))
+        }
+        (_, None) => (primitive(p), None),
+    }
+}
+
+fn field_doc(f: &Field) -> TokenStream {
+    let mut text = f.description.clone();
+    let mut facts = Vec::new();
+    if let Some(u) = f.attr("units") {
+        facts.push(format!("units: {u}"));
+    }
+    for key in ["multiplier", "invalid", "default", "minValue", "maxValue", "increment", "display", "print_format", "instance"] {
+        if let Some(v) = f.attr(key) {
+            facts.push(format!("{key}: `{v}`"));
+        }
+    }
+    if f.extension {
+        facts.push("extension field".into());
+    }
+    if f.ty.mavlink_version {
+        facts.push("always sent as the dialect's version".into());
+    }
+    if !facts.is_empty() {
+        text.push_str(&format!("\n\n({})", facts.join(", ")));
+    }
+    docs(&text)
+}
+
+fn emit_message(ctx: &Ctx<'_>, msg: &Message, version: u8) -> TokenStream {
+    let name = ident(&msg.name.rust);
+    let wire_name = &msg.name.wire;
+    let (id, crc_extra) = (msg.id, msg.crc_extra);
+    let (min_len, max_len) = (lit(msg.min_len), lit(msg.max_len));
+    let mut text = msg.description.clone();
+    if msg.wip {
+        text.push_str("\n\nWork in progress: may change.");
+    }
+    text.push_str(&format!(
+        "\n\n`{wire_name}`: id {id}, CRC_EXTRA {crc_extra}, payload {} bytes ({} with extensions).",
+        msg.min_len, msg.max_len
+    ));
+    let doc = docs(&text);
+    let dep = deprecated(&msg.deprecated);
+    let serde = serde_derive();
+
+    let fields = msg.fields.iter().map(|f| {
+        let fname = ident(&f.name.rust);
+        let (ty, with) = field_type(ctx, f);
+        let wire = &f.name.wire;
+        // serde already strips `r#`; rename only where the spelling really differs.
+        let rename = (f.name.rust.trim_start_matches("r#") != wire).then(|| quote!(rename = #wire,));
+        let serde_attr = match (rename, with) {
+            (None, None) => quote!(),
+            (rename, Some(w)) => quote!(#[cfg_attr(feature = "serde", serde(#rename with = #w))]),
+            (rename, None) => quote!(#[cfg_attr(feature = "serde", serde(#rename))]),
+        };
+        let doc = field_doc(f);
+        quote! { #doc #serde_attr pub #fname: #ty, }
+    });
+
+    let puts = msg.wire_order.iter().map(|&i| {
+        let f = &msg.fields[i];
+        let fname = ident(&f.name.rust);
+        let at = lit(f.offset);
+        if f.ty.mavlink_version {
+            let v = Literal::u8_suffixed(version);
+            quote!(::ferrolink_runtime::wire::put(buf, #at, #v);)
+        } else if ctx.enum_of(f).is_some() {
+            let w = primitive(f.ty.primitive);
+            quote!(::ferrolink_runtime::wire::put_enum::<#w, _>(buf, #at, self.#fname);)
+        } else {
+            quote!(::ferrolink_runtime::wire::put(buf, #at, self.#fname);)
+        }
+    });
+    let gets = msg.fields.iter().map(|f| {
+        let fname = ident(&f.name.rust);
+        let at = lit(f.offset);
+        if ctx.enum_of(f).is_some() {
+            let w = primitive(f.ty.primitive);
+            quote!(#fname: ::ferrolink_runtime::wire::get_enum::<#w, _>(p, #at),)
+        } else {
+            quote!(#fname: ::ferrolink_runtime::wire::get(p, #at),)
+        }
+    });
+    let serde_container = quote! {
+        #[cfg_attr(feature = "serde", serde(crate = #SERDE, default))]
+    };
+
+    quote! {
+        #doc
+        #dep
+        #[derive(Debug, Clone, Copy, PartialEq)]
+        #serde
+        #serde_container
+        pub struct #name {
+            #( #fields )*
+        }
+
+        #[allow(deprecated)]
+        impl #name {
+            /// Message id.
+            pub const ID: u32 = #id;
+            /// Wire name.
+            pub const NAME: &'static str = #wire_name;
+            /// CRC_EXTRA seed.
+            pub const CRC_EXTRA: u8 = #crc_extra;
+            /// Payload length of the base fields.
+            pub const MIN_LEN: usize = #min_len;
+            /// Payload length with extensions.
+            pub const MAX_LEN: usize = #max_len;
+        }
+
+        #[allow(deprecated)]
+        impl ::core::default::Default for #name {
+            /// All fields zero, as a zero-length payload decodes.
+            fn default() -> Self {
+                <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
+            }
+        }
+
+        #[allow(deprecated)]
+        impl ::ferrolink_runtime::mavlink::Message for #name {
+            const ID: u32 = #id;
+            const NAME: &'static str = #wire_name;
+            const CRC_EXTRA: u8 = #crc_extra;
+            const MIN_LEN: usize = #min_len;
+            const MAX_LEN: usize = #max_len;
+
+            #[inline]
+            fn encode(&self, buf: &mut ::ferrolink_runtime::mavlink::PayloadBuf) -> usize {
+                #( #puts )*
+                #max_len
+            }
+
+            #[inline]
+            fn decode(payload: &[u8]) -> Self {
+                let p = &::ferrolink_runtime::wire::zero_extend::<#max_len>(payload);
+                Self { #( #gets )* }
+            }
+        }
+    }
+}
+
+fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
+    let module = &ctx.ir.modules[ctx.module];
+    let mut all: Vec<(usize, &Message)> = module
+        .closure
+        .iter()
+        .flat_map(|&m| ctx.ir.modules[m].messages.iter().map(move |msg| (m, msg)))
+        .collect();
+    all.sort_by_key(|(_, msg)| msg.id);
+    all.dedup_by_key(|(_, msg)| msg.id);
+
+    let doc = docs(&format!(
+        "Every message of `{}` and the files it includes, with id dispatch.",
+        module.name.wire
+    ));
+    let serde = serde_derive();
+    let variants = all.iter().map(|(m, msg)| {
+        let v = ident(&msg.name.rust);
+        let path = ctx.item_path(*m, &msg.name.rust);
+        let wire = &msg.name.wire;
+        quote! {
+            #[cfg_attr(feature = "serde", serde(rename = #wire))]
+            #v(#path),
+        }
+    });
+    let metas = all.iter().map(|(_, msg)| {
+        let (id, name, crc) = (msg.id, &msg.name.wire, msg.crc_extra);
+        let min = msg.min_len as u8;
+        let max = msg.max_len as u8;
+        let opt = |o: Option<usize>| match o {
+            Some(v) => {
+                let v = v as u8;
+                quote!(::core::option::Option::Some(#v))
+            }
+            None => quote!(::core::option::Option::None),
+        };
+        let (ts, tc) = (opt(msg.target_system), opt(msg.target_component));
+        quote! {
+            ::ferrolink_runtime::mavlink::MessageMeta {
+                id: #id, name: #name, crc_extra: #crc, min_len: #min, max_len: #max,
+                target_system: #ts, target_component: #tc,
+            },
+        }
+    });
+    let decodes = all.iter().map(|(_, msg)| {
+        let (v, id) = (ident(&msg.name.rust), msg.id);
+        quote!(#id => Self::#v(::ferrolink_runtime::mavlink::Message::decode(payload)),)
+    });
+    let ids = all.iter().map(|(_, msg)| {
+        let (v, id) = (ident(&msg.name.rust), msg.id);
+        quote!(Self::#v(_) => #id,)
+    });
+    let encodes = all.iter().map(|(_, msg)| {
+        let v = ident(&msg.name.rust);
+        quote!(Self::#v(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),)
+    });
+    let froms = all.iter().map(|(m, msg)| {
+        let v = ident(&msg.name.rust);
+        let path = ctx.item_path(*m, &msg.name.rust);
+        quote! {
+            #[allow(deprecated)]
+            impl ::core::convert::From<#path> for Message {
+                fn from(m: #path) -> Self {
+                    Self::#v(m)
+                }
+            }
+        }
+    });
+    let decode_body = if all.is_empty() {
+        quote!(let _ = payload; ::core::result::Result::Err(::ferrolink_runtime::mavlink::UnknownMessageId(id)))
+    } else {
+        quote! {
+            ::core::result::Result::Ok(match id {
+                #( #decodes )*
+                _ => return ::core::result::Result::Err(::ferrolink_runtime::mavlink::UnknownMessageId(id)),
+            })
+        }
+    };
+    let (id_body, encode_body) = if all.is_empty() {
+        (quote!(match *self {}), quote!(let _ = buf; match *self {}))
+    } else {
+        (quote!(match self { #( #ids )* }), quote!(match self { #( #encodes )* }))
+    };
+    quote! {
+        #doc
+        #[derive(Debug, Clone, PartialEq)]
+        #[allow(deprecated, clippy::large_enum_variant)]
+        #serde
+        #[cfg_attr(feature = "serde", serde(crate = #SERDE, tag = "mavpackettype"))]
+        pub enum Message {
+            #( #variants )*
+        }
+
+        #[allow(deprecated)]
+        impl ::ferrolink_runtime::mavlink::Dialect for Message {
+            const META: &'static [::ferrolink_runtime::mavlink::MessageMeta] = &[ #( #metas )* ];
+
+            fn decode(id: u32, payload: &[u8]) -> ::core::result::Result<Self, ::ferrolink_runtime::mavlink::UnknownMessageId> {
+                #decode_body
+            }
+
+            fn id(&self) -> u32 {
+                #id_body
+            }
+
+            fn encode(&self, buf: &mut ::ferrolink_runtime::mavlink::PayloadBuf) -> usize {
+                #encode_body
+            }
+        }
+
+        #( #froms )*
+    }
+}

@@ -1,0 +1,116 @@
+//! `ferrolink`: generate bindings, check dictionaries, dump the IR.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "ferrolink", version, about = "Message dictionaries to fast, safe Rust")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Generate Rust bindings: `mod.rs` plus one module per dictionary file.
+    Generate {
+        /// Dictionary files (their includes are read too).
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        /// Only report whether the output directory is up to date (exit 1 if not).
+        #[arg(long)]
+        check: bool,
+    },
+    /// Report every problem in the dictionaries; exit 1 on errors.
+    Check {
+        /// Dictionary files.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+    },
+    /// Print the lowered IR as JSON.
+    Ir {
+        /// Dictionary files.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli.command) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("{e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn print_warnings(warnings: &[ferrolink_codegen::Diagnostic]) {
+    for w in warnings {
+        eprintln!("{w}\n");
+    }
+}
+
+fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    match command {
+        Command::Generate { inputs, out, check } => {
+            let mut config = ferrolink_codegen::Config::new();
+            for i in &inputs {
+                config.input(i);
+            }
+            let generated = config.generate_modules()?;
+            print_warnings(&generated.warnings);
+            if check {
+                let stale: Vec<&str> = generated
+                    .files
+                    .iter()
+                    .filter(|f| std::fs::read_to_string(out.join(&f.name)).ok() != Some(f.content.clone()))
+                    .map(|f| f.name.as_str())
+                    .collect();
+                if stale.is_empty() {
+                    eprintln!("{} is up to date", out.display());
+                    return Ok(ExitCode::SUCCESS);
+                }
+                eprintln!("stale in {}: {}", out.display(), stale.join(", "));
+                return Ok(ExitCode::FAILURE);
+            }
+            let written = ferrolink_codegen::write::write_all(&out, &generated.files)?;
+            eprintln!(
+                "{} file(s) in {}, {} changed",
+                generated.files.len(),
+                out.display(),
+                written.len()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Check { inputs } => match ferrolink_codegen::load(&inputs) {
+            Ok(checked) => {
+                print_warnings(&checked.warnings);
+                let messages: usize = checked.ir.modules.iter().map(|m| m.messages.len()).sum();
+                eprintln!(
+                    "ok: {} file(s), {messages} message(s), {} enum(s), {} warning(s)",
+                    checked.ir.modules.len(),
+                    checked.ir.enums.len(),
+                    checked.warnings.len()
+                );
+                Ok(ExitCode::SUCCESS)
+            }
+            Err(failed) => {
+                eprintln!("{failed}");
+                Ok(ExitCode::FAILURE)
+            }
+        },
+        Command::Ir { inputs } => {
+            let checked = ferrolink_codegen::load(&inputs)?;
+            print_warnings(&checked.warnings);
+            println!("{}", serde_json::to_string_pretty(&checked.ir)?);
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}

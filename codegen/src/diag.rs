@@ -1,0 +1,324 @@
+//! Diagnostics: every problem found in a dictionary, with a stable code, a position, the source
+//! line with a caret, and a hint.
+//!
+//! All stages push into one [`Diagnostics`] accumulator so that a run reports every problem at
+//! once; the pipeline stops before emitting code if any error was reported.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// A loaded source file.
+#[derive(Debug)]
+pub struct SourceFile {
+    /// The path as given (or as resolved from an include).
+    pub path: PathBuf,
+    /// The file's text.
+    pub text: String,
+    line_starts: Vec<usize>,
+}
+
+impl SourceFile {
+    /// Wraps a file's text.
+    pub fn new(path: impl Into<PathBuf>, text: String) -> Arc<Self> {
+        let line_starts = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        Arc::new(Self {
+            path: path.into(),
+            text,
+            line_starts,
+        })
+    }
+
+    /// 1-based line and column (in characters) of a byte offset.
+    pub fn line_col(&self, offset: usize) -> (usize, usize) {
+        let offset = offset.min(self.text.len());
+        let line = self.line_starts.partition_point(|&s| s <= offset) - 1;
+        let start = self.line_starts[line];
+        let col = self.text.get(start..offset).map_or(0, |s| s.chars().count());
+        (line + 1, col + 1)
+    }
+
+    /// The text of 1-based line `line`, without its line break.
+    pub fn line_text(&self, line: usize) -> &str {
+        let start = self.line_starts.get(line - 1).copied().unwrap_or(0);
+        let end = self
+            .line_starts
+            .get(line)
+            .copied()
+            .unwrap_or(self.text.len());
+        self.text
+            .get(start..end)
+            .unwrap_or("")
+            .trim_end_matches(['\n', '\r'])
+    }
+}
+
+/// A byte range in a source file.
+#[derive(Debug, Clone)]
+pub struct Span {
+    /// The file.
+    pub file: Arc<SourceFile>,
+    /// Start byte offset.
+    pub start: usize,
+    /// End byte offset (exclusive); at least `start`.
+    pub end: usize,
+}
+
+impl Span {
+    /// A span of `len` bytes at `start`.
+    pub fn new(file: &Arc<SourceFile>, start: usize, end: usize) -> Self {
+        Self {
+            file: file.clone(),
+            start,
+            end: end.max(start),
+        }
+    }
+
+    /// `path:line:col`.
+    pub fn location(&self) -> String {
+        let (line, col) = self.file.line_col(self.start);
+        format!("{}:{line}:{col}", self.file.path.display())
+    }
+}
+
+/// How bad a diagnostic is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// Code is still generated.
+    Warning,
+    /// No code is generated.
+    Error,
+}
+
+macro_rules! codes {
+    ($( $(#[$doc:meta])* $name:ident = $code:literal, $sev:ident, $hint:literal; )*) => {
+        /// Every diagnostic the generator can report. Codes are stable.
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        #[non_exhaustive]
+        pub enum Code {
+            $( $(#[$doc])* $name, )*
+        }
+
+        impl Code {
+            /// Every code, for documentation and tests.
+            pub const ALL: &'static [Code] = &[$(Code::$name),*];
+
+            /// The stable code, e.g. `"E0101"`.
+            pub const fn as_str(self) -> &'static str {
+                match self { $( Code::$name => $code, )* }
+            }
+
+            /// Whether this stops code generation.
+            pub const fn severity(self) -> Severity {
+                match self { $( Code::$name => Severity::$sev, )* }
+            }
+
+            /// What to do about it.
+            pub const fn hint(self) -> &'static str {
+                match self { $( Code::$name => $hint, )* }
+            }
+        }
+    };
+}
+
+codes! {
+    /// The file could not be read.
+    Io = "E0001", Error, "check the path and permissions";
+    /// The XML or TOML is not well-formed.
+    Syntax = "E0002", Error, "fix the syntax at the marked position; nothing after it was read";
+    /// An element the dialect format does not have.
+    UnknownElement = "W0101", Warning, "mavgen ignores it too; check the spelling";
+    /// An attribute the element does not have.
+    UnknownAttribute = "W0102", Warning, "mavgen ignores it too; check the spelling";
+    /// A required attribute or element is missing.
+    Missing = "E0103", Error, "add it; see the dialect format in the README";
+    /// A number that does not parse or is out of range.
+    BadNumber = "E0104", Error, "write a decimal, 0x.., 0b.. or 2**n value in range";
+    /// A field type that is not a MAVLink type.
+    UnknownType = "E0105", Error, "use one of int8_t..uint64_t, float, double, char, each optionally with [N]";
+    /// An array length of 0 or over 255, or a malformed one.
+    BadArrayLength = "E0106", Error, "array lengths are 1..=255, written as type[N]";
+    /// A message id above 2^24-1.
+    IdOutOfRange = "E0107", Error, "message ids are 0..=16777215 (24 bits)";
+    /// An include that cannot be found.
+    IncludeNotFound = "E0201", Error, "include paths are relative to the including file";
+    /// An include cycle.
+    IncludeCycle = "E0202", Error, "remove one of the includes in the cycle";
+    /// Two messages with the same id.
+    DuplicateMessageId = "E0301", Error, "every message id must be unique in a dialect and its includes";
+    /// Two messages with the same name.
+    DuplicateMessageName = "E0302", Error, "every message name must be unique in a dialect and its includes";
+    /// Two fields of a message with the same name.
+    DuplicateField = "E0303", Error, "rename one of the fields";
+    /// Two entries of an enum with the same name.
+    DuplicateEntryName = "E0304", Error, "rename or remove one of the entries";
+    /// Two entries of an enum with the same value.
+    DuplicateEntryValue = "E0305", Error, "give each entry its own value";
+    /// A field names an enum that does not exist.
+    MissingEnum = "E0306", Error, "define the enum or fix the name in `enum=`";
+    /// The payload is over 255 bytes.
+    PayloadTooLong = "E0307", Error, "MAVLink payloads are at most 255 bytes; split the message";
+    /// A message without fields.
+    EmptyMessage = "E0308", Error, "a message needs at least one field";
+    /// More than 64 fields.
+    TooManyFields = "E0309", Error, "a message has at most 64 fields";
+    /// Two names that become the same Rust name.
+    NameCollision = "E0310", Error, "rename one of them; names are compared after case conversion";
+}
+
+/// One problem.
+#[derive(Debug, Clone)]
+pub struct Diagnostic {
+    /// What kind.
+    pub code: Code,
+    /// The message.
+    pub message: String,
+    /// Where.
+    pub span: Span,
+    /// What the caret points at.
+    pub label: String,
+    /// Other places that take part (e.g. the first definition of a duplicate).
+    pub notes: Vec<(Span, String)>,
+}
+
+impl Diagnostic {
+    /// Severity from the code.
+    pub fn severity(&self) -> Severity {
+        self.code.severity()
+    }
+
+    /// Adds a secondary place.
+    pub fn note(mut self, span: Span, text: impl Into<String>) -> Self {
+        self.notes.push((span, text.into()));
+        self
+    }
+}
+
+fn render_snippet(f: &mut fmt::Formatter<'_>, span: &Span, label: &str) -> fmt::Result {
+    let (line, col) = span.file.line_col(span.start);
+    let text = span.file.line_text(line);
+    let width = line.to_string().len();
+    let line_chars = text.chars().count();
+    let (_, end_col) = span.file.line_col(span.end);
+    let (end_line, _) = span.file.line_col(span.end);
+    let carets = if end_line == line && end_col > col {
+        end_col - col
+    } else {
+        line_chars.saturating_sub(col - 1).max(1)
+    };
+    writeln!(f, "{:width$} |", "")?;
+    writeln!(f, "{line:width$} | {text}")?;
+    writeln!(
+        f,
+        "{:width$} | {}{} {label}",
+        "",
+        " ".repeat(col - 1),
+        "^".repeat(carets.clamp(1, 80))
+    )
+}
+
+impl fmt::Display for Diagnostic {
+    /// rustc-like rendering:
+    ///
+    /// ```text
+    /// error[E0306]: field `type` names enum `MAV_TYPO`, which does not exist
+    ///   --> dialect.xml:12:7
+    ///    |
+    /// 12 |       <field type="uint8_t" name="type" enum="MAV_TYPO">...</field>
+    ///    |                                         ^^^^^^^^^^^^^^^ no such enum
+    ///    = hint: define the enum or fix the name in `enum=`
+    /// ```
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let sev = match self.severity() {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        };
+        writeln!(f, "{sev}[{}]: {}", self.code.as_str(), self.message)?;
+        writeln!(f, "  --> {}", self.span.location())?;
+        render_snippet(f, &self.span, &self.label)?;
+        for (span, text) in &self.notes {
+            writeln!(f, "  note: {}", span.location())?;
+            render_snippet(f, span, text)?;
+        }
+        write!(f, "   = hint: {}", self.code.hint())
+    }
+}
+
+/// The accumulator every stage reports into.
+#[derive(Debug, Default)]
+pub struct Diagnostics {
+    items: Vec<Diagnostic>,
+}
+
+impl Diagnostics {
+    /// Reports a problem.
+    pub fn report(
+        &mut self,
+        code: Code,
+        span: Span,
+        message: impl Into<String>,
+        label: impl Into<String>,
+    ) -> &mut Diagnostic {
+        self.items.push(Diagnostic {
+            code,
+            message: message.into(),
+            span,
+            label: label.into(),
+            notes: Vec::new(),
+        });
+        self.items.last_mut().expect("just pushed")
+    }
+
+    /// Whether any error (not warning) was reported.
+    pub fn has_errors(&self) -> bool {
+        self.items.iter().any(|d| d.severity() == Severity::Error)
+    }
+
+    /// All diagnostics, in file order.
+    pub fn into_vec(mut self) -> Vec<Diagnostic> {
+        self.sort();
+        self.items
+    }
+
+    /// All diagnostics so far.
+    pub fn items(&self) -> &[Diagnostic] {
+        &self.items
+    }
+
+    fn sort(&mut self) {
+        self.items
+            .sort_by(|a, b| (&a.span.file.path, a.span.start).cmp(&(&b.span.file.path, b.span.start)));
+    }
+}
+
+/// The error a failed run returns: every diagnostic, warnings included.
+#[derive(Debug)]
+pub struct Failed(pub Vec<Diagnostic>);
+
+impl fmt::Display for Failed {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let errors = self
+            .0
+            .iter()
+            .filter(|d| d.severity() == Severity::Error)
+            .count();
+        for d in &self.0 {
+            writeln!(f, "{d}\n")?;
+        }
+        write!(f, "{errors} error(s)")
+    }
+}
+
+impl std::error::Error for Failed {}
+
+/// Displays a path relative to the current directory where possible, so that diagnostics and
+/// snapshots do not depend on where the project lives.
+pub fn display_path(path: &Path) -> PathBuf {
+    std::env::current_dir()
+        .ok()
+        .and_then(|cwd| path.strip_prefix(cwd).ok().map(Path::to_path_buf))
+        .unwrap_or_else(|| path.to_path_buf())
+}

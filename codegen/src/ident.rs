@@ -1,0 +1,115 @@
+//! Name handling, in one place: dictionary names to Rust identifiers.
+//!
+//! Keywords become raw identifiers (`type` -> `r#type`); the few that cannot be raw (`self`,
+//! `Self`, `super`, `crate`) get a trailing underscore; a leading digit gets a prefix; an enum's
+//! own name is stripped from its entries.
+
+use heck::{ToShoutySnakeCase, ToSnakeCase, ToUpperCamelCase};
+
+const KEYWORDS: &[&str] = &[
+    "as", "break", "const", "continue", "else", "enum", "extern", "false", "fn", "for", "if",
+    "impl", "in", "let", "loop", "match", "mod", "move", "mut", "pub", "ref", "return", "static",
+    "struct", "trait", "true", "type", "unsafe", "use", "where", "while", "async", "await", "dyn",
+    "abstract", "become", "box", "do", "final", "macro", "override", "priv", "typeof", "unsized",
+    "virtual", "yield", "try", "gen",
+];
+const NOT_RAW: &[&str] = &["self", "Self", "super", "crate", "_"];
+
+/// Makes `name` a valid identifier: raw for keywords, `_` suffix where raw is not allowed,
+/// `prefix` before a leading digit.
+fn escape(name: String, prefix: &str) -> String {
+    if NOT_RAW.contains(&name.as_str()) {
+        format!("{name}_")
+    } else if KEYWORDS.contains(&name.as_str()) {
+        format!("r#{name}")
+    } else if name.starts_with(|c: char| c.is_ascii_digit()) || name.is_empty() {
+        format!("{prefix}{name}")
+    } else {
+        name
+    }
+}
+
+/// Upper camel case that keeps an underscore between two digit groups, so that `CR_7_5_M` and
+/// `CR_75_M` stay apart (`Cr7_5M`, `Cr75M`).
+fn camel(wire: &str) -> String {
+    if wire.chars().any(|c| c.is_lowercase()) {
+        return wire.to_upper_camel_case();
+    }
+    let mut out = String::new();
+    for word in wire.split('_').filter(|w| !w.is_empty()) {
+        if out.ends_with(|c: char| c.is_ascii_digit()) && word.starts_with(|c: char| c.is_ascii_digit()) {
+            out.push('_');
+        }
+        out.push_str(&word.to_upper_camel_case());
+    }
+    out
+}
+
+/// A type name: `HEARTBEAT` -> `Heartbeat`, `MAV_TYPE` -> `MavType`.
+pub fn type_name(wire: &str) -> String {
+    escape(camel(wire), "T")
+}
+
+/// A field or module name: `type` -> `r#type`, `targetSystem` -> `target_system`.
+pub fn value_name(wire: &str) -> String {
+    escape(wire.to_snake_case(), "f_")
+}
+
+/// The part of an entry name after its enum's prefix (`MAV_TYPE_GENERIC` -> `GENERIC`), or the
+/// whole name. A rest that starts with a digit keeps the prefix's last word
+/// (`GPS_FIX_TYPE_2D_FIX` -> `TYPE_2D_FIX`).
+fn strip_enum_prefix<'a>(enum_wire: &str, entry_wire: &'a str) -> std::borrow::Cow<'a, str> {
+    let Some(rest) = entry_wire
+        .strip_prefix(enum_wire)
+        .and_then(|r| r.strip_prefix('_'))
+        .filter(|r| !r.is_empty())
+    else {
+        return entry_wire.into();
+    };
+    if rest.starts_with(|c: char| c.is_ascii_digit()) {
+        let last = enum_wire.rsplit('_').next().unwrap_or(enum_wire);
+        format!("{last}_{rest}").into()
+    } else {
+        rest.into()
+    }
+}
+
+/// An enum variant: `MAV_TYPE_GENERIC` in `MAV_TYPE` -> `Generic`.
+pub fn variant_name(enum_wire: &str, entry_wire: &str) -> String {
+    escape(
+        camel(&strip_enum_prefix(enum_wire, entry_wire)),
+        "V",
+    )
+}
+
+/// A flag constant: `MAV_MODE_FLAG_SAFETY_ARMED` in `MAV_MODE_FLAG` -> `SAFETY_ARMED`.
+pub fn flag_name(enum_wire: &str, entry_wire: &str) -> String {
+    escape(
+        strip_enum_prefix(enum_wire, entry_wire).to_shouty_snake_case(),
+        "F_",
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names() {
+        assert_eq!(type_name("HEARTBEAT"), "Heartbeat");
+        assert_eq!(type_name("GPS_RAW_INT"), "GpsRawInt");
+        assert_eq!(type_name("MAV_TYPE"), "MavType");
+        assert_eq!(value_name("type"), "r#type");
+        assert_eq!(value_name("self"), "self_");
+        assert_eq!(value_name("targetSystem"), "target_system");
+        assert_eq!(value_name("ASLUAV"), "asluav");
+        assert_eq!(variant_name("MAV_TYPE", "MAV_TYPE_GENERIC"), "Generic");
+        assert_eq!(variant_name("GPS_FIX_TYPE", "GPS_FIX_TYPE_2D_FIX"), "Type2dFix");
+        assert_eq!(variant_name("MAV_CMD", "OTHER_NAME"), "OtherName");
+        assert_eq!(variant_name("X", "X_SELF"), "Self_");
+        assert_eq!(flag_name("MAV_MODE_FLAG", "MAV_MODE_FLAG_SAFETY_ARMED"), "SAFETY_ARMED");
+        assert_eq!(flag_name("A", "A_1"), "A_1");
+        assert_eq!(variant_name("X", "X_CR_7_5_M"), "Cr7_5M");
+        assert_eq!(variant_name("X", "X_CR_75_M"), "Cr75M");
+    }
+}
