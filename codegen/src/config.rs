@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use proc_macro2::TokenStream;
 use quote::quote;
 
-use crate::backend::rust;
+use crate::backend::rust::{self, SerdeMode};
 use crate::diag::Failed;
 use crate::format;
 use crate::write::{self, GeneratedFile};
@@ -25,6 +25,7 @@ pub struct Config {
     inputs: Vec<PathBuf>,
     out_dir: Option<PathBuf>,
     file_name: Option<String>,
+    serde: SerdeMode,
 }
 
 /// The result of [`Config::generate`]: file contents, nothing written yet.
@@ -87,6 +88,19 @@ impl Config {
         self
     }
 
+    /// Whether generated types implement serde's traits, in pymavlink's `to_dict()` JSON form.
+    /// Off by default; the crate holding the code then depends on `ferrolink-runtime` with its
+    /// `serde` feature.
+    ///
+    /// ```
+    /// use ferrolink_codegen::{Config, SerdeMode};
+    /// Config::new().serde(SerdeMode::Feature("serde".into()));
+    /// ```
+    pub fn serde(&mut self, mode: SerdeMode) -> &mut Self {
+        self.serde = mode;
+        self
+    }
+
     fn run(&self) -> Result<Checked, Failed> {
         crate::load(&self.inputs)
     }
@@ -106,7 +120,7 @@ impl Config {
     fn render(&self, layout: Layout) -> Result<Generated, Failed> {
         let checked = self.run()?;
         let header = format::header(&self.inputs_label());
-        let modules = rust::emit(&checked.ir);
+        let modules = rust::emit(&checked.ir, &self.serde);
         let files = match layout {
             Layout::Single => {
                 let mods = modules.iter().map(|(name, tokens)| module(name, tokens, true));

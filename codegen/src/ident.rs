@@ -74,12 +74,18 @@ fn strip_enum_prefix<'a>(enum_wire: &str, entry_wire: &'a str) -> std::borrow::C
     }
 }
 
-/// An enum variant: `MAV_TYPE_GENERIC` in `MAV_TYPE` -> `Generic`.
+/// The catch-all variant every generated enum has for values it does not name.
+pub const UNKNOWN_VARIANT: &str = "Unknown";
+
+/// An enum variant: `MAV_TYPE_GENERIC` in `MAV_TYPE` -> `Generic`. An entry that would be
+/// called `Unknown` becomes `Unknown_`, as `Unknown(raw)` is the catch-all.
 pub fn variant_name(enum_wire: &str, entry_wire: &str) -> String {
-    escape(
-        camel(&strip_enum_prefix(enum_wire, entry_wire)),
-        "V",
-    )
+    let name = escape(camel(&strip_enum_prefix(enum_wire, entry_wire)), "V");
+    if name == UNKNOWN_VARIANT {
+        format!("{name}_")
+    } else {
+        name
+    }
 }
 
 /// A flag constant: `MAV_MODE_FLAG_SAFETY_ARMED` in `MAV_MODE_FLAG` -> `SAFETY_ARMED`.
@@ -111,5 +117,6 @@ mod tests {
         assert_eq!(flag_name("A", "A_1"), "A_1");
         assert_eq!(variant_name("X", "X_CR_7_5_M"), "Cr7_5M");
         assert_eq!(variant_name("X", "X_CR_75_M"), "Cr75M");
+        assert_eq!(variant_name("FENCE_MITIGATE", "FENCE_MITIGATE_UNKNOWN"), "Unknown_");
     }
 }

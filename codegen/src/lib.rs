@@ -31,6 +31,7 @@ pub mod ir;
 pub mod lower;
 pub mod write;
 
+pub use backend::rust::SerdeMode;
 pub use config::{Config, Generated};
 pub use diag::{Diagnostic, Failed};
 

@@ -83,19 +83,44 @@ fn lit(v: usize) -> Literal {
     Literal::usize_unsuffixed(v)
 }
 
+/// Whether and how generated types implement serde's traits (the pymavlink `to_dict()` form).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub enum SerdeMode {
+    /// No serde code.
+    #[default]
+    Off,
+    /// Always derive.
+    Always,
+    /// Derive when the named feature of the crate holding the code is on.
+    Feature(String),
+}
+
 /// Emits every module of `ir`, in order, as (module name, tokens).
-pub fn emit(ir: &Ir) -> Vec<(String, TokenStream)> {
+pub fn emit(ir: &Ir, serde: &SerdeMode) -> Vec<(String, TokenStream)> {
     (0..ir.modules.len())
-        .map(|i| (ir.modules[i].name.rust.clone(), emit_module(ir, i)))
+        .map(|i| {
+            let ctx = Ctx { ir, module: i, serde };
+            (ir.modules[i].name.rust.clone(), emit_module(&ctx))
+        })
         .collect()
 }
 
 struct Ctx<'a> {
     ir: &'a Ir,
     module: usize,
+    serde: &'a SerdeMode,
 }
 
 impl Ctx<'_> {
+    /// A serde attribute (`serde(...)` or `derive(...)`), as the mode wants it.
+    fn serde(&self, inner: TokenStream) -> TokenStream {
+        match self.serde {
+            SerdeMode::Off => quote!(),
+            SerdeMode::Always => quote!(#[#inner]),
+            SerdeMode::Feature(f) => quote!(#[cfg_attr(feature = #f, #inner)]),
+        }
+    }
+
     /// The path of an item defined in module `m`, as seen from the current module.
     fn item_path(&self, m: usize, name: &str) -> TokenStream {
         let name = ident(name);
@@ -116,19 +141,19 @@ impl Ctx<'_> {
     }
 }
 
-fn emit_module(ir: &Ir, index: usize) -> TokenStream {
-    let module: &Module = &ir.modules[index];
-    let ctx = Ctx { ir, module: index };
+fn emit_module(ctx: &Ctx<'_>) -> TokenStream {
+    let ir = ctx.ir;
+    let module: &Module = &ir.modules[ctx.module];
     let reexports = module.includes.iter().map(|&m| {
         let name = ident(&ir.modules[m].name.rust);
-        quote!(pub use super::#name::*;)
+        quote!(#[allow(unused_imports)] pub use super::#name::*;)
     });
     let enums = module.enums.iter().map(|&e| emit_enum(&ir.enums[e]));
     let messages = module
         .messages
         .iter()
-        .map(|m| emit_message(&ctx, m, module.version.unwrap_or(0)));
-    let dialect = emit_dialect(&ctx);
+        .map(|m| emit_message(ctx, m, module.version.unwrap_or(0)));
+    let dialect = emit_dialect(ctx);
     let mut text = format!(
         "Messages and enums of `{}`, with everything it includes re-exported.",
         module.path.rsplit('/').next().unwrap_or(&module.path)
@@ -140,6 +165,8 @@ fn emit_module(ir: &Ir, index: usize) -> TokenStream {
     let inner_doc = inner(doc);
     quote! {
         #inner_doc
+        // Deprecation is for users of the bindings; the bindings themselves use every item.
+        #![allow(deprecated)]
         #( #reexports )*
         #( #enums )*
         #( #messages )*
@@ -204,13 +231,13 @@ fn emit_enum(e: &Enum) -> TokenStream {
 
 const SERDE: &str = "::ferrolink_runtime::__private::serde";
 
-fn serde_derive() -> TokenStream {
-    quote! {
-        #[cfg_attr(feature = "serde", derive(
+fn serde_derive(ctx: &Ctx<'_>) -> TokenStream {
+    ctx.serde(quote! {
+        derive(
             ::ferrolink_runtime::__private::serde::Serialize,
             ::ferrolink_runtime::__private::serde::Deserialize,
-        ))]
-    }
+        )
+    })
 }
 
 /// The field's Rust type and the `serde(with)` adapter it needs, if any.
@@ -278,7 +305,7 @@ fn emit_message(ctx: &Ctx<'_>, msg: &Message, version: u8) -> TokenStream {
     ));
     let doc = docs(&text);
     let dep = deprecated(&msg.deprecated);
-    let serde = serde_derive();
+    let serde = serde_derive(ctx);
 
     let fields = msg.fields.iter().map(|f| {
         let fname = ident(&f.name.rust);
@@ -288,8 +315,8 @@ fn emit_message(ctx: &Ctx<'_>, msg: &Message, version: u8) -> TokenStream {
         let rename = (f.name.rust.trim_start_matches("r#") != wire).then(|| quote!(rename = #wire,));
         let serde_attr = match (rename, with) {
             (None, None) => quote!(),
-            (rename, Some(w)) => quote!(#[cfg_attr(feature = "serde", serde(#rename with = #w))]),
-            (rename, None) => quote!(#[cfg_attr(feature = "serde", serde(#rename))]),
+            (rename, Some(w)) => ctx.serde(quote!(serde(#rename with = #w))),
+            (rename, None) => ctx.serde(quote!(serde(#rename))),
         };
         let doc = field_doc(f);
         quote! { #doc #serde_attr pub #fname: #ty, }
@@ -319,9 +346,7 @@ fn emit_message(ctx: &Ctx<'_>, msg: &Message, version: u8) -> TokenStream {
             quote!(#fname: ::ferrolink_runtime::wire::get(p, #at),)
         }
     });
-    let serde_container = quote! {
-        #[cfg_attr(feature = "serde", serde(crate = #SERDE, default))]
-    };
+    let serde_container = ctx.serde(quote!(serde(crate = #SERDE, default)));
 
     quote! {
         #doc
@@ -333,8 +358,7 @@ fn emit_message(ctx: &Ctx<'_>, msg: &Message, version: u8) -> TokenStream {
             #( #fields )*
         }
 
-        #[allow(deprecated)]
-        impl #name {
+                impl #name {
             /// Message id.
             pub const ID: u32 = #id;
             /// Wire name.
@@ -347,16 +371,14 @@ fn emit_message(ctx: &Ctx<'_>, msg: &Message, version: u8) -> TokenStream {
             pub const MAX_LEN: usize = #max_len;
         }
 
-        #[allow(deprecated)]
-        impl ::core::default::Default for #name {
+                impl ::core::default::Default for #name {
             /// All fields zero, as a zero-length payload decodes.
             fn default() -> Self {
                 <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
             }
         }
 
-        #[allow(deprecated)]
-        impl ::ferrolink_runtime::mavlink::Message for #name {
+                impl ::ferrolink_runtime::mavlink::Message for #name {
             const ID: u32 = #id;
             const NAME: &'static str = #wire_name;
             const CRC_EXTRA: u8 = #crc_extra;
@@ -392,15 +414,14 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
         "Every message of `{}` and the files it includes, with id dispatch.",
         module.name.wire
     ));
-    let serde = serde_derive();
+    let serde = serde_derive(ctx);
+    let serde_container = ctx.serde(quote!(serde(crate = #SERDE, tag = "mavpackettype")));
     let variants = all.iter().map(|(m, msg)| {
         let v = ident(&msg.name.rust);
         let path = ctx.item_path(*m, &msg.name.rust);
         let wire = &msg.name.wire;
-        quote! {
-            #[cfg_attr(feature = "serde", serde(rename = #wire))]
-            #v(#path),
-        }
+        let rename = ctx.serde(quote!(serde(rename = #wire)));
+        quote! { #rename #v(#path), }
     });
     let metas = all.iter().map(|(_, msg)| {
         let (id, name, crc) = (msg.id, &msg.name.wire, msg.crc_extra);
@@ -437,8 +458,7 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
         let v = ident(&msg.name.rust);
         let path = ctx.item_path(*m, &msg.name.rust);
         quote! {
-            #[allow(deprecated)]
-            impl ::core::convert::From<#path> for Message {
+                        impl ::core::convert::From<#path> for Message {
                 fn from(m: #path) -> Self {
                     Self::#v(m)
                 }
@@ -463,15 +483,14 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
     quote! {
         #doc
         #[derive(Debug, Clone, PartialEq)]
-        #[allow(deprecated, clippy::large_enum_variant)]
+        #[allow(clippy::large_enum_variant)]
         #serde
-        #[cfg_attr(feature = "serde", serde(crate = #SERDE, tag = "mavpackettype"))]
+        #serde_container
         pub enum Message {
             #( #variants )*
         }
 
-        #[allow(deprecated)]
-        impl ::ferrolink_runtime::mavlink::Dialect for Message {
+                impl ::ferrolink_runtime::mavlink::Dialect for Message {
             const META: &'static [::ferrolink_runtime::mavlink::MessageMeta] = &[ #( #metas )* ];
 
             fn decode(id: u32, payload: &[u8]) -> ::core::result::Result<Self, ::ferrolink_runtime::mavlink::UnknownMessageId> {

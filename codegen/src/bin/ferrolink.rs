@@ -25,6 +25,12 @@ enum Command {
         /// Only report whether the output directory is up to date (exit 1 if not).
         #[arg(long)]
         check: bool,
+        /// serde support: derive behind this cargo feature of the crate holding the code.
+        #[arg(long, value_name = "FEATURE", conflicts_with = "serde_always")]
+        serde_feature: Option<String>,
+        /// serde support: always derive.
+        #[arg(long)]
+        serde_always: bool,
     },
     /// Report every problem in the dictionaries; exit 1 on errors.
     Check {
@@ -59,8 +65,19 @@ fn print_warnings(warnings: &[ferrolink_codegen::Diagnostic]) {
 
 fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
     match command {
-        Command::Generate { inputs, out, check } => {
+        Command::Generate {
+            inputs,
+            out,
+            check,
+            serde_feature,
+            serde_always,
+        } => {
             let mut config = ferrolink_codegen::Config::new();
+            config.serde(match (serde_feature, serde_always) {
+                (Some(f), _) => ferrolink_codegen::SerdeMode::Feature(f),
+                (None, true) => ferrolink_codegen::SerdeMode::Always,
+                (None, false) => ferrolink_codegen::SerdeMode::Off,
+            });
             for i in &inputs {
                 config.input(i);
             }
