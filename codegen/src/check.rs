@@ -33,11 +33,15 @@ pub fn check(ir: &Ir, diags: &mut Diagnostics) {
                     Code::DuplicateEntryName,
                     span,
                     first,
-                    format!("enum `{}` has entry `{}` twice", e.name.wire, entry.name.wire),
+                    format!(
+                        "enum `{}` has entry `{}` twice",
+                        e.name.wire, entry.name.wire
+                    ),
                 );
                 continue;
             }
-            if let Some((other, first)) = values.insert(entry.value, (&entry.name.wire, &entry.span))
+            if let Some((other, first)) =
+                values.insert(entry.value, (&entry.name.wire, &entry.span))
             {
                 report_dup(
                     diags,
@@ -51,7 +55,8 @@ pub fn check(ir: &Ir, diags: &mut Diagnostics) {
                 );
                 continue;
             }
-            if let Some((other, first)) = rust.insert(&entry.name.rust, (&entry.name.wire, &entry.span))
+            if let Some((other, first)) =
+                rust.insert(&entry.name.rust, (&entry.name.wire, &entry.span))
             {
                 report_dup(
                     diags,
@@ -124,7 +129,10 @@ fn check_message(msg: &Message, enums: &HashSet<&str>, diags: &mut Diagnostics) 
                 Code::DuplicateField,
                 f.span.clone(),
                 first,
-                format!("message `{}` has field `{}` twice", msg.name.wire, f.name.wire),
+                format!(
+                    "message `{}` has field `{}` twice",
+                    msg.name.wire, f.name.wire
+                ),
             );
         } else if let Some((other, first)) = rust.insert(&f.name.rust, (&f.name.wire, &f.span)) {
             report_dup(
@@ -143,7 +151,10 @@ fn check_message(msg: &Message, enums: &HashSet<&str>, diags: &mut Diagnostics) 
                 diags.report(
                     Code::MissingEnum,
                     at.clone(),
-                    format!("field `{}` names enum `{name}`, which does not exist", f.name.wire),
+                    format!(
+                        "field `{}` names enum `{name}`, which does not exist",
+                        f.name.wire
+                    ),
                     "no such enum",
                 );
             }
@@ -154,12 +165,16 @@ fn check_message(msg: &Message, enums: &HashSet<&str>, diags: &mut Diagnostics) 
 /// Type names within one module: messages, enums and the generated `Message` enum.
 fn check_item_names(ir: &Ir, module: &crate::ir::Module, diags: &mut Diagnostics) {
     let mut seen: HashMap<String, (String, Option<Span>)> = HashMap::new();
-    seen.insert("Message".into(), ("the dialect's message enum".into(), None));
-    let items = module
-        .messages
-        .iter()
-        .map(|m| (&m.name, &m.span))
-        .chain(module.enums.iter().map(|&i| (&ir.enums[i].name, &ir.enums[i].span)));
+    seen.insert(
+        "Message".into(),
+        ("the dialect's message enum".into(), None),
+    );
+    let items = module.messages.iter().map(|m| (&m.name, &m.span)).chain(
+        module
+            .enums
+            .iter()
+            .map(|&i| (&ir.enums[i].name, &ir.enums[i].span)),
+    );
     for (name, span) in items {
         if let Some((other, first)) = seen.get(&name.rust) {
             if let Some(span) = span {
@@ -174,7 +189,10 @@ fn check_item_names(ir: &Ir, module: &crate::ir::Module, diags: &mut Diagnostics
                 }
             }
         } else {
-            seen.insert(name.rust.clone(), (format!("`{}`", name.wire), span.clone()));
+            seen.insert(
+                name.rust.clone(),
+                (format!("`{}`", name.wire), span.clone()),
+            );
         }
     }
 }

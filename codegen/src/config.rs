@@ -110,8 +110,10 @@ impl Config {
             .inputs
             .iter()
             .map(|p| {
-                p.file_name()
-                    .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+                p.file_name().map_or_else(
+                    || p.display().to_string(),
+                    |n| n.to_string_lossy().into_owned(),
+                )
             })
             .collect();
         names.join(", ")
@@ -123,7 +125,9 @@ impl Config {
         let modules = rust::emit(&checked.ir, &self.serde);
         let files = match layout {
             Layout::Single => {
-                let mods = modules.iter().map(|(name, tokens)| module(name, tokens, true));
+                let mods = modules
+                    .iter()
+                    .map(|(name, tokens)| module(name, tokens, true));
                 let text = format::render(quote!(#( #mods )*));
                 vec![GeneratedFile {
                     name: self

@@ -36,7 +36,10 @@ impl SourceFile {
         let offset = offset.min(self.text.len());
         let line = self.line_starts.partition_point(|&s| s <= offset) - 1;
         let start = self.line_starts[line];
-        let col = self.text.get(start..offset).map_or(0, |s| s.chars().count());
+        let col = self
+            .text
+            .get(start..offset)
+            .map_or(0, |s| s.chars().count());
         (line + 1, col + 1)
     }
 
@@ -143,6 +146,8 @@ codes! {
     BadArrayLength = "E0106", Error, "array lengths are 1..=255, written as type[N]";
     /// A message id above 2^24-1.
     IdOutOfRange = "E0107", Error, "message ids are 0..=16777215 (24 bits)";
+    /// A name that is not an identifier.
+    InvalidName = "E0108", Error, "names are ASCII letters, digits and `_`, not starting with a digit";
     /// An include that cannot be found.
     IncludeNotFound = "E0201", Error, "include paths are relative to the including file";
     /// An include cycle.
@@ -289,8 +294,9 @@ impl Diagnostics {
     }
 
     fn sort(&mut self) {
-        self.items
-            .sort_by(|a, b| (&a.span.file.path, a.span.start).cmp(&(&b.span.file.path, b.span.start)));
+        self.items.sort_by(|a, b| {
+            (&a.span.file.path, a.span.start).cmp(&(&b.span.file.path, b.span.start))
+        });
     }
 }
 

@@ -37,7 +37,9 @@ fn camel(wire: &str) -> String {
     }
     let mut out = String::new();
     for word in wire.split('_').filter(|w| !w.is_empty()) {
-        if out.ends_with(|c: char| c.is_ascii_digit()) && word.starts_with(|c: char| c.is_ascii_digit()) {
+        if out.ends_with(|c: char| c.is_ascii_digit())
+            && word.starts_with(|c: char| c.is_ascii_digit())
+        {
             out.push('_');
         }
         out.push_str(&word.to_upper_camel_case());
@@ -110,13 +112,22 @@ mod tests {
         assert_eq!(value_name("targetSystem"), "target_system");
         assert_eq!(value_name("ASLUAV"), "asluav");
         assert_eq!(variant_name("MAV_TYPE", "MAV_TYPE_GENERIC"), "Generic");
-        assert_eq!(variant_name("GPS_FIX_TYPE", "GPS_FIX_TYPE_2D_FIX"), "Type2dFix");
+        assert_eq!(
+            variant_name("GPS_FIX_TYPE", "GPS_FIX_TYPE_2D_FIX"),
+            "Type2dFix"
+        );
         assert_eq!(variant_name("MAV_CMD", "OTHER_NAME"), "OtherName");
         assert_eq!(variant_name("X", "X_SELF"), "Self_");
-        assert_eq!(flag_name("MAV_MODE_FLAG", "MAV_MODE_FLAG_SAFETY_ARMED"), "SAFETY_ARMED");
+        assert_eq!(
+            flag_name("MAV_MODE_FLAG", "MAV_MODE_FLAG_SAFETY_ARMED"),
+            "SAFETY_ARMED"
+        );
         assert_eq!(flag_name("A", "A_1"), "A_1");
         assert_eq!(variant_name("X", "X_CR_7_5_M"), "Cr7_5M");
         assert_eq!(variant_name("X", "X_CR_75_M"), "Cr75M");
-        assert_eq!(variant_name("FENCE_MITIGATE", "FENCE_MITIGATE_UNKNOWN"), "Unknown_");
+        assert_eq!(
+            variant_name("FENCE_MITIGATE", "FENCE_MITIGATE_UNKNOWN"),
+            "Unknown_"
+        );
     }
 }

@@ -99,7 +99,11 @@ pub enum SerdeMode {
 pub fn emit(ir: &Ir, serde: &SerdeMode) -> Vec<(String, TokenStream)> {
     (0..ir.modules.len())
         .map(|i| {
-            let ctx = Ctx { ir, module: i, serde };
+            let ctx = Ctx {
+                ir,
+                module: i,
+                serde,
+            };
             (ir.modules[i].name.rust.clone(), emit_module(&ctx))
         })
         .collect()
@@ -196,9 +200,16 @@ fn emit_enum(e: &Enum) -> TokenStream {
     doc_text.push_str(&format!("\n\nWire name: `{}`.", e.name.wire));
     let doc = docs(&doc_text);
     let dep = deprecated(&e.deprecated);
-    let entries = e.entries.iter().map(|entry| {
-        let variant = ident(&entry.name.rust);
-        let value = Literal::u64_unsuffixed(entry.value);
+    let variants: Vec<Ident> = e
+        .entries
+        .iter()
+        .map(|entry| ident(&entry.name.rust))
+        .collect();
+    let values = e
+        .entries
+        .iter()
+        .map(|entry| Literal::u64_unsuffixed(entry.value));
+    let items = e.entries.iter().zip(&variants).map(|(entry, variant)| {
         let mut text = entry.description.clone();
         if entry.wip {
             text.push_str("\n\nWork in progress: may change.");
@@ -207,24 +218,30 @@ fn emit_enum(e: &Enum) -> TokenStream {
         let doc = docs(&text);
         let dep = deprecated(&entry.deprecated);
         if e.bitmask {
-            quote! { #doc #dep const #variant = #value; }
+            let value = Literal::u64_unsuffixed(entry.value);
+            quote! { #doc #dep pub const #variant: Self = Self(#value); }
         } else {
-            quote! { #doc #dep #variant = #value, }
+            quote! { #doc #dep #variant, }
         }
     });
     if e.bitmask {
         quote! {
-            ::ferrolink_runtime::mav_bitmask! {
-                #doc #dep
-                pub struct #name: #repr { #( #entries )* }
-            }
+            #doc #dep
+            #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+            pub struct #name(pub #repr);
+            impl #name { #( #items )* }
+            ::ferrolink_runtime::mav_bitmask!(#name: #repr { #( #variants ),* });
         }
     } else {
         quote! {
-            ::ferrolink_runtime::mav_enum! {
-                #doc #dep
-                pub enum #name: #repr { #( #entries )* }
+            #doc #dep
+            #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+            pub enum #name {
+                #( #items )*
+                /// A value this dialect does not name.
+                Unknown(#repr),
             }
+            ::ferrolink_runtime::mav_enum!(#name: #repr { #( #variants = #values ),* });
         }
     }
 }
@@ -273,7 +290,17 @@ fn field_doc(f: &Field) -> TokenStream {
     if let Some(u) = f.attr("units") {
         facts.push(format!("units: {u}"));
     }
-    for key in ["multiplier", "invalid", "default", "minValue", "maxValue", "increment", "display", "print_format", "instance"] {
+    for key in [
+        "multiplier",
+        "invalid",
+        "default",
+        "minValue",
+        "maxValue",
+        "increment",
+        "display",
+        "print_format",
+        "instance",
+    ] {
         if let Some(v) = f.attr(key) {
             facts.push(format!("{key}: `{v}`"));
         }
@@ -312,7 +339,8 @@ fn emit_message(ctx: &Ctx<'_>, msg: &Message, version: u8) -> TokenStream {
         let (ty, with) = field_type(ctx, f);
         let wire = &f.name.wire;
         // serde already strips `r#`; rename only where the spelling really differs.
-        let rename = (f.name.rust.trim_start_matches("r#") != wire).then(|| quote!(rename = #wire,));
+        let rename =
+            (f.name.rust.trim_start_matches("r#") != wire).then(|| quote!(rename = #wire,));
         let serde_attr = match (rename, with) {
             (None, None) => quote!(),
             (rename, Some(w)) => ctx.serde(quote!(serde(#rename with = #w))),
@@ -478,7 +506,10 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
     let (id_body, encode_body) = if all.is_empty() {
         (quote!(match *self {}), quote!(let _ = buf; match *self {}))
     } else {
-        (quote!(match self { #( #ids )* }), quote!(match self { #( #encodes )* }))
+        (
+            quote!(match self { #( #ids )* }),
+            quote!(match self { #( #encodes )* }),
+        )
     };
     quote! {
         #doc

@@ -6,7 +6,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "ferrolink", version, about = "Message dictionaries to fast, safe Rust")]
+#[command(
+    name = "ferrolink",
+    version,
+    about = "Message dictionaries to fast, safe Rust"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -87,7 +91,9 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 let stale: Vec<&str> = generated
                     .files
                     .iter()
-                    .filter(|f| std::fs::read_to_string(out.join(&f.name)).ok() != Some(f.content.clone()))
+                    .filter(|f| {
+                        std::fs::read_to_string(out.join(&f.name)).ok() != Some(f.content.clone())
+                    })
                     .map(|f| f.name.as_str())
                     .collect();
                 if stale.is_empty() {

@@ -133,8 +133,10 @@ impl Loader {
 }
 
 fn file_name(p: &Path) -> String {
-    p.file_name()
-        .map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
+    p.file_name().map_or_else(
+        || p.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }
 
 fn include_paths(root: &Element, source: &Arc<SourceFile>) -> Vec<(String, Span)> {
@@ -237,6 +239,24 @@ fn check_attrs(el: &Element, known: &[&str], diags: &mut Diagnostics) {
     }
 }
 
+/// The `name` attribute, required and checked to be an identifier.
+fn name_attr(el: &Element, diags: &mut Diagnostics) -> Option<String> {
+    let attr = required(el, "name", diags)?;
+    let v = &attr.value;
+    let ok = v.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_')
+        && v.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    if !ok {
+        diags.report(
+            Code::InvalidName,
+            attr.value_span.clone(),
+            format!("`{v}` is not a valid name"),
+            "not an identifier",
+        );
+        return None;
+    }
+    Some(v.clone())
+}
+
 fn required<'a>(el: &'a Element, name: &str, diags: &mut Diagnostics) -> Option<&'a Attr> {
     let attr = el.attr(name);
     if attr.is_none() {
@@ -292,7 +312,10 @@ fn in_range(v: u64, max: u64, span: &Span, diags: &mut Diagnostics) -> Option<u6
 fn read_deprecation(el: &Element, superseded: bool, diags: &mut Diagnostics) -> Deprecation {
     check_attrs(el, &["since", "replaced_by"], diags);
     Deprecation {
-        since: el.attr("since").map(|a| a.value.clone()).unwrap_or_default(),
+        since: el
+            .attr("since")
+            .map(|a| a.value.clone())
+            .unwrap_or_default(),
         replaced_by: el
             .attr("replaced_by")
             .map(|a| a.value.clone())
@@ -304,7 +327,7 @@ fn read_deprecation(el: &Element, superseded: bool, diags: &mut Diagnostics) -> 
 
 fn read_enum(el: &Element, diags: &mut Diagnostics) -> Option<Enum> {
     check_attrs(el, &["name", "bitmask"], diags);
-    let name = required(el, "name", diags)?.value.clone();
+    let name = name_attr(el, diags)?;
     let mut e = Enum {
         name: Name {
             rust: ident::type_name(&name),
@@ -347,10 +370,16 @@ fn read_entry(
 ) -> Option<Entry> {
     check_attrs(
         el,
-        &["name", "value", "hasLocation", "isDestination", "missionOnly"],
+        &[
+            "name",
+            "value",
+            "hasLocation",
+            "isDestination",
+            "missionOnly",
+        ],
         diags,
     );
-    let name = required(el, "name", diags)?.value.clone();
+    let name = name_attr(el, diags)?;
     let (value, implicit) = match el.attr("value") {
         Some(a) => (parse_int(&a.value, &a.value_span, diags)?, false),
         // mavgen: an entry without a value takes the highest value so far + 1.
@@ -439,7 +468,7 @@ const FIELD_ATTRS: &[&str] = &[
 
 fn read_message(el: &Element, diags: &mut Diagnostics) -> Option<Message> {
     check_attrs(el, &["id", "name"], diags);
-    let name = required(el, "name", diags).map(|a| a.value.clone());
+    let name = name_attr(el, diags);
     let id_attr = required(el, "id", diags);
     let id = id_attr.and_then(|a| {
         let v = parse_int(&a.value, &a.value_span, diags)?;
@@ -489,12 +518,16 @@ fn read_message(el: &Element, diags: &mut Diagnostics) -> Option<Message> {
             _ => unknown_element(child, "<message>", diags),
         }
     }
-    (name.is_some() && id.is_some() && fields_ok).then_some(msg)
+    // A message with a bad field keeps its good ones so that their problems are reported too;
+    // errors were reported, so no code is generated from it. With no good field left it is
+    // dropped, to avoid a misleading "empty message".
+    let has_fields = fields_ok || !msg.fields.is_empty();
+    (name.is_some() && id.is_some() && has_fields).then_some(msg)
 }
 
 fn read_field(el: &Element, extension: bool, diags: &mut Diagnostics) -> Option<Field> {
     check_attrs(el, FIELD_ATTRS, diags);
-    let name = required(el, "name", diags).map(|a| a.value.clone());
+    let name = name_attr(el, diags);
     let ty = required(el, "type", diags).and_then(|a| parse_type(a, diags));
     let (name, ty) = (name?, ty?);
     let enum_attr = el.attr("enum").filter(|a| !a.value.is_empty());
@@ -531,7 +564,9 @@ fn parse_type(attr: &Attr, diags: &mut Diagnostics) -> Option<FieldType> {
     }
     let (base, array) = match text.split_once('[') {
         Some((base, rest)) => {
-            let len = rest.strip_suffix(']').and_then(|n| n.trim().parse::<u64>().ok());
+            let len = rest
+                .strip_suffix(']')
+                .and_then(|n| n.trim().parse::<u64>().ok());
             match len {
                 Some(n) if (1..=255).contains(&n) => (base, Some(n as u8)),
                 _ => {

@@ -79,7 +79,9 @@ pub fn parse(file: &Arc<SourceFile>, diags: &mut Diagnostics) -> Option<Element>
             }
         };
         let after = reader.buffer_position() as usize;
-        let tag_start = file.text[before..after].find('<').map_or(before, |i| before + i);
+        let tag_start = file.text[before..after]
+            .find('<')
+            .map_or(before, |i| before + i);
         match event {
             Event::Start(tag) => {
                 stack.push((element(file, &tag, tag_start, after, diags), String::new()));
@@ -243,7 +245,7 @@ mod tests {
         let name = b.attr("name").unwrap();
         assert_eq!(name.value, "two");
         assert_eq!(&text[name.value_span.start..name.value_span.end], "two");
-        assert_eq!(name.value_span.location(), "t.xml:2:18");
+        assert_eq!(name.value_span.location(), "t.xml:2:20");
     }
 
     #[test]

@@ -3,37 +3,28 @@
 //! Both keep values the dialect does not name: an enum gets an `Unknown(raw)` variant and a flag
 //! set keeps unknown bits, so decoding never fails on a value from a newer dialect.
 
-/// Declares a MAVLink enum with an `Unknown(raw)` variant.
+/// Implements a MAVLink enum declared with an `Unknown(raw)` variant: conversions from and to
+/// the raw value, `Default` (the value 0), the wire trait and, with the `serde` feature, serde
+/// as the raw integer.
 ///
 /// ```
-/// ferrolink_runtime::mav_enum! {
-///     /// Vehicle kinds.
-///     pub enum MavType: u8 {
-///         /// Generic.
-///         Generic = 0,
-///         FixedWing = 1,
-///     }
+/// /// Vehicle kinds.
+/// #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+/// pub enum MavType {
+///     Generic,
+///     FixedWing,
+///     /// A value without a name.
+///     Unknown(u8),
 /// }
+/// ferrolink_runtime::mav_enum!(MavType: u8 { Generic = 0, FixedWing = 1 });
+///
 /// assert_eq!(MavType::from_raw(1), MavType::FixedWing);
 /// assert_eq!(MavType::from_raw(77), MavType::Unknown(77));
 /// assert_eq!(MavType::Unknown(77).raw(), 77);
 /// ```
 #[macro_export]
 macro_rules! mav_enum {
-    (
-        $(#[$meta:meta])*
-        $vis:vis enum $name:ident : $raw:ty {
-            $( $(#[$vmeta:meta])* $variant:ident = $value:literal, )*
-        }
-    ) => {
-        $(#[$meta])*
-        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-        $vis enum $name {
-            $( $(#[$vmeta])* $variant, )*
-            /// A value this dialect does not name.
-            Unknown($raw),
-        }
-
+    ($name:ident : $raw:ty { $( $variant:ident = $value:literal ),* $(,)? }) => {
         #[allow(deprecated)]
         impl $name {
             /// The variant for `raw`; values without a name become `Unknown(raw)`.
@@ -86,35 +77,30 @@ macro_rules! mav_enum {
     };
 }
 
-/// Declares a MAVLink bitmask enum as a flag set that keeps unknown bits.
+/// Implements a MAVLink bitmask declared as `struct Name(pub raw)` with one associated const per
+/// flag: set operations, `Debug` that names known flags and shows unknown bits, conversions,
+/// the wire trait and serde as the raw integer.
 ///
 /// ```
-/// ferrolink_runtime::mav_bitmask! {
-///     pub struct ModeFlag: u8 {
-///         /// Armed.
-///         const SAFETY_ARMED = 128;
-///         const TEST_ENABLED = 2;
-///     }
+/// #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
+/// pub struct ModeFlag(pub u8);
+/// impl ModeFlag {
+///     /// Armed.
+///     pub const SAFETY_ARMED: Self = Self(128);
+///     pub const TEST_ENABLED: Self = Self(2);
 /// }
+/// ferrolink_runtime::mav_bitmask!(ModeFlag: u8 { SAFETY_ARMED, TEST_ENABLED });
+///
 /// let f = ModeFlag::SAFETY_ARMED | ModeFlag::from_raw(1);
 /// assert!(f.contains(ModeFlag::SAFETY_ARMED));
 /// assert_eq!(f.raw(), 129);
+/// assert_eq!(format!("{f:?}"), "ModeFlag(SAFETY_ARMED | 0x1)");
 /// ```
 #[macro_export]
 macro_rules! mav_bitmask {
-    (
-        $(#[$meta:meta])*
-        $vis:vis struct $name:ident : $raw:ty {
-            $( $(#[$vmeta:meta])* const $flag:ident = $value:literal; )*
-        }
-    ) => {
-        $(#[$meta])*
-        #[derive(Clone, Copy, PartialEq, Eq, Hash, Default)]
-        $vis struct $name(pub $raw);
-
+    ($name:ident : $raw:ty { $( $flag:ident ),* $(,)? }) => {
         #[allow(deprecated)]
         impl $name {
-            $( $(#[$vmeta])* pub const $flag: Self = Self($value); )*
             /// Every named flag with its name.
             pub const NAMED: &'static [(&'static str, Self)] = &[ $( (stringify!($flag), Self::$flag), )* ];
 
@@ -166,22 +152,7 @@ macro_rules! mav_bitmask {
 
         impl ::core::fmt::Debug for $name {
             fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
-                let mut rest = self.0;
-                let mut first = true;
-                write!(f, "{}(", stringify!($name))?;
-                for (name, flag) in Self::NAMED {
-                    if flag.0 != 0 && self.contains(*flag) && rest & flag.0 != 0 {
-                        if !first { f.write_str(" | ")?; }
-                        f.write_str(name)?;
-                        rest &= !flag.0;
-                        first = false;
-                    }
-                }
-                if rest != 0 || first {
-                    if !first { f.write_str(" | ")?; }
-                    write!(f, "{:#x}", rest)?;
-                }
-                f.write_str(")")
+                $crate::mavlink::fmt_flags(f, stringify!($name), self.0 as u64, Self::NAMED.iter().map(|(n, v)| (*n, v.0 as u64)))
             }
         }
 
@@ -210,6 +181,36 @@ macro_rules! mav_bitmask {
 
         $crate::__serde_raw!($name, $raw);
     };
+}
+
+/// `Debug` for flag sets, shared by every generated bitmask: `Name(A | B | 0x80)`.
+#[doc(hidden)]
+pub fn fmt_flags(
+    f: &mut core::fmt::Formatter<'_>,
+    name: &str,
+    bits: u64,
+    named: impl Iterator<Item = (&'static str, u64)>,
+) -> core::fmt::Result {
+    let mut rest = bits;
+    let mut first = true;
+    write!(f, "{name}(")?;
+    for (flag, value) in named {
+        if value != 0 && bits & value == value && rest & value != 0 {
+            if !first {
+                f.write_str(" | ")?;
+            }
+            f.write_str(flag)?;
+            rest &= !value;
+            first = false;
+        }
+    }
+    if rest != 0 || first {
+        if !first {
+            f.write_str(" | ")?;
+        }
+        write!(f, "{rest:#x}")?;
+    }
+    f.write_str(")")
 }
 
 /// serde as the raw integer, as pymavlink's `to_dict()` shows enum fields.
@@ -247,18 +248,21 @@ macro_rules! __serde_raw {
 mod tests {
     use crate::wire::{get_enum, put_enum};
 
-    crate::mav_enum! {
-        enum Kind: u32 {
-            A = 0,
-            B = 70000,
-        }
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    enum Kind {
+        A,
+        B,
+        Unknown(u32),
     }
-    crate::mav_bitmask! {
-        struct Flags: u16 {
-            const X = 1;
-            const Y = 0x100;
-        }
+    crate::mav_enum!(Kind: u32 { A = 0, B = 70000 });
+
+    #[derive(Clone, Copy, PartialEq, Eq)]
+    struct Flags(u16);
+    impl Flags {
+        const X: Self = Self(1);
+        const Y: Self = Self(0x100);
     }
+    crate::mav_bitmask!(Flags: u16 { X, Y });
 
     #[test]
     fn unknown_values_round_trip_through_narrower_and_signed_fields() {
@@ -276,6 +280,8 @@ mod tests {
     fn flags_keep_unknown_bits_and_print_them() {
         let f = Flags::from_raw(0x8101);
         assert!(f.contains(Flags::X | Flags::Y));
+        assert_eq!(f.raw(), 0x8101);
+        assert!(Flags::empty().is_empty() && !f.is_empty());
         extern crate std;
         assert_eq!(std::format!("{f:?}"), "Flags(X | Y | 0x8000)");
         assert_eq!(std::format!("{:?}", Flags::empty()), "Flags(0x0)");
