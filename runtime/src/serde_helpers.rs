@@ -101,7 +101,9 @@ pub mod f32_array {
     }
 
     /// Deserializes a list of exactly `N` numbers.
-    pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f32; N], D::Error> {
+    pub fn deserialize<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<[f32; N], D::Error> {
         let wide: [f64; N] = super::array::deserialize(d)?;
         Ok(wide.map(|v| v as f32))
     }

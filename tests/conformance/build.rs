@@ -12,12 +12,18 @@ fn main() {
         .serde(ferrolink_codegen::SerdeMode::Always)
         .compile()
         .unwrap_or_else(|e| panic!("{e}"));
-    let stem = xml.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let stem = xml
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let root = ferrolink_codegen::ident::value_name(&stem);
     let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     std::fs::write(
         out.join("root.rs"),
-        format!("pub use crate::dialects::{root} as root;\npub const DIALECT_FILE: &str = {:?};\n", xml.display().to_string()),
+        format!(
+            "pub use crate::dialects::{root} as root;\npub const DIALECT_FILE: &str = {:?};\n",
+            xml.display().to_string()
+        ),
     )
     .expect("write root.rs");
 }

@@ -169,8 +169,8 @@ fn emit_module(ctx: &Ctx<'_>) -> TokenStream {
     let inner_doc = inner(doc);
     quote! {
         #inner_doc
-        // Deprecation is for users of the bindings; the bindings themselves use every item.
-        #![allow(deprecated)]
+        // Deprecation is for users of the bindings, which use every item; most users need few.
+        #![allow(deprecated, dead_code)]
         #( #reexports )*
         #( #enums )*
         #( #messages )*

@@ -4,10 +4,31 @@
 //! all messages implementing [`Dialect`], whose [`Dialect::META`] table (sorted by id) is all a
 //! parser or router needs to check and forward frames without decoding them.
 
+//!
+//! The frame layer, one module per wire format:
+//!
+//! - [`v1`] and [`v2`]: zero-copy frame views and encoders into caller buffers;
+//! - [`parser`]: the backtracking stream parser, which recovers every intact frame from a noisy
+//!   byte stream at any chunking;
+//! - [`signing`]: MAVLink 2 signatures and replay protection.
+
 mod chars;
 mod enums;
+mod error;
+mod frame;
+pub mod parser;
+pub mod signing;
+#[cfg(test)]
+pub(crate) mod testing;
+pub mod v1;
+pub mod v2;
 
 pub use chars::CharArray;
+#[doc(hidden)]
+pub use enums::fmt_flags;
+pub use error::{EncodeError, FrameError};
+pub use frame::{AnyFrame, Header, Version};
+pub use parser::Parser;
 
 /// The largest MAVLink payload.
 pub const MAX_PAYLOAD_LEN: usize = 255;

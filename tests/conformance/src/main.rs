@@ -59,7 +59,11 @@ type Error = Box<dyn std::error::Error>;
 fn vectors(path: &str) -> Result<bool, Error> {
     let text = std::fs::read_to_string(path)?;
     let (mut passed, mut failed) = (0usize, 0usize);
-    for (n, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+    for (n, line) in text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+    {
         match check_vector(line) {
             Ok(()) => passed += 1,
             Err(e) => {
@@ -77,7 +81,8 @@ fn vectors(path: &str) -> Result<bool, Error> {
 
 fn check_vector(line: &str) -> Result<(), Error> {
     let v: Vector = serde_json::from_str(line)?;
-    let meta = Message::meta_of(v.id).ok_or_else(|| format!("{}: id {} not in the dialect", v.name, v.id))?;
+    let meta = Message::meta_of(v.id)
+        .ok_or_else(|| format!("{}: id {} not in the dialect", v.name, v.id))?;
     if meta.name != v.name || meta.crc_extra != v.crc_extra {
         return Err(format!(
             "{}: metadata differs: ours {} crc_extra {}, vector crc_extra {}",
@@ -91,13 +96,18 @@ fn check_vector(line: &str) -> Result<(), Error> {
 
     // Decode v2: frame view, then stream parser.
     let v2_bytes = hex::decode(&v.v2)?;
-    let frame = v2::Frame::new_checked(&v2_bytes[..]).map_err(|e| format!("{}: v2 frame: {e}", v.name))?;
+    let frame =
+        v2::Frame::new_checked(&v2_bytes[..]).map_err(|e| format!("{}: v2 frame: {e}", v.name))?;
     if !frame.check_crc(meta.crc_extra) || frame.header() != header {
         return Err(format!("{}: v2 header or CRC mismatch", v.name).into());
     }
     let decoded: Message = frame.decode()?;
     if decoded != expected {
-        return Err(format!("{}: v2 decode differs:\n  ours     {decoded:?}\n  expected {expected:?}", v.name).into());
+        return Err(format!(
+            "{}: v2 decode differs:\n  ours     {decoded:?}\n  expected {expected:?}",
+            v.name
+        )
+        .into());
     }
     let streamed = parse_all(&v2_bytes)?;
     if streamed != [(header, expected.clone())] {
@@ -108,7 +118,13 @@ fn check_vector(line: &str) -> Result<(), Error> {
     let mut out = [0u8; v2::MAX_FRAME_LEN];
     let n = v2::encode_dialect(header, &expected, &mut out)?;
     if out[..n] != v2_bytes[..] {
-        return Err(format!("{}: v2 encode differs:\n  ours     {}\n  expected {}", v.name, hex::encode(&out[..n]), v.v2).into());
+        return Err(format!(
+            "{}: v2 encode differs:\n  ours     {}\n  expected {}",
+            v.name,
+            hex::encode(&out[..n]),
+            v.v2
+        )
+        .into());
     }
 
     // v1: base fields only.
@@ -118,7 +134,8 @@ fn check_vector(line: &str) -> Result<(), Error> {
     match (&v.v1, v.id <= 255) {
         (Some(hex_v1), true) => {
             let v1_bytes = hex::decode(hex_v1)?;
-            let frame = v1::Frame::new_checked(&v1_bytes[..]).map_err(|e| format!("{}: v1 frame: {e}", v.name))?;
+            let frame = v1::Frame::new_checked(&v1_bytes[..])
+                .map_err(|e| format!("{}: v1 frame: {e}", v.name))?;
             if !frame.check_crc(meta.crc_extra) || frame.header() != header {
                 return Err(format!("{}: v1 header or CRC mismatch", v.name).into());
             }
@@ -131,12 +148,19 @@ fn check_vector(line: &str) -> Result<(), Error> {
             }
             let n = v1::encode_dialect(header, &expected, &mut out)?;
             if out[..n] != v1_bytes[..] {
-                return Err(format!("{}: v1 encode differs:\n  ours     {}\n  expected {hex_v1}", v.name, hex::encode(&out[..n])).into());
+                return Err(format!(
+                    "{}: v1 encode differs:\n  ours     {}\n  expected {hex_v1}",
+                    v.name,
+                    hex::encode(&out[..n])
+                )
+                .into());
             }
         }
         (None, false) => {
             if v1::encode_dialect(header, &expected, &mut out).is_ok() {
-                return Err(format!("{}: v1 encoding of an id > 255 must be refused", v.name).into());
+                return Err(
+                    format!("{}: v1 encoding of an id > 255 must be refused", v.name).into(),
+                );
             }
         }
         _ => return Err(format!("{}: v1 presence does not match the id", v.name).into()),

@@ -1,0 +1,758 @@
+//! A push-style, backtracking stream parser for MAVLink 1 and 2 frames.
+//!
+//! [`Parser::feed`] takes whatever bytes arrived and returns either "all consumed, no frame yet"
+//! or one frame plus the input it has not looked at yet. Frames are zero-copy views: into the
+//! input when a whole frame lies inside it, otherwise into the parser's own buffer.
+//!
+//! The parser backtracks. When a candidate frame is rejected (bad checksum, unknown message id,
+//! unknown incompat flags), only its magic byte is dropped and the search restarts at the next
+//! byte, including bytes the candidate had claimed. A false magic byte announcing a long payload
+//! therefore delays the frames behind it but never loses them; byte-at-a-time parsers that
+//! skip a whole claimed length lose every frame hidden inside it.
+//!
+//! ```
+//! use ferrolink_runtime::mavlink::{parser::{Feed, Parser}, MessageMeta};
+//!
+//! static META: &[MessageMeta] = &[MessageMeta {
+//!     id: 0, name: "HEARTBEAT", crc_extra: 50, min_len: 9, max_len: 9,
+//!     target_system: None, target_component: None,
+//! }];
+//! let heartbeat = [
+//!     0xfd, 0x09, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00, 0x04, 0x00, 0x00, 0x00,
+//!     0x02, 0x03, 0x51, 0x04, 0x03, 0x7b, 0xae,
+//! ];
+//! let mut parser: Parser = Parser::new(META);
+//!
+//! // The frame arrives in two pieces, after some line noise.
+//! assert!(matches!(parser.feed(&[0x00, 0xfd, 0x13]), Feed::Consumed));
+//! assert!(matches!(parser.feed(&heartbeat[..5]), Feed::Consumed));
+//! match parser.feed(&heartbeat[5..]) {
+//!     Feed::Frame { frame, remaining } => {
+//!         assert_eq!((frame.msg_id(), frame.header().sysid), (0, 1));
+//!         assert!(remaining.is_empty());
+//!     }
+//!     Feed::Consumed => unreachable!(),
+//! }
+//! assert_eq!(parser.stats().frames, 1);
+//! ```
+
+use core::fmt;
+
+use super::frame::{checksum, is_magic, AnyFrame, Header};
+use super::{find_meta, v1, v2, Dialect, MessageMeta, UnknownMessageId};
+
+/// What a [`Parser`] accepted and dropped so far.
+///
+/// Every byte fed is accounted for exactly once:
+/// `fed = garbage_bytes + rejected() + (bytes of frames handed out) + Parser::buffered()`,
+/// because a rejected candidate costs exactly its magic byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Stats {
+    /// Frames handed out, unchecked ones included.
+    pub frames: u64,
+    /// Frames with an unknown message id handed out unchecked
+    /// (see [`Parser::pass_unknown_ids`]).
+    pub unchecked: u64,
+    /// Bytes skipped while searching for a magic byte.
+    pub garbage_bytes: u64,
+    /// Candidates dropped for a checksum mismatch.
+    pub bad_crc: u64,
+    /// Candidates dropped for a message id missing from the table.
+    pub unknown_id: u64,
+    /// MAVLink 2 candidates dropped for unknown incompat flags.
+    pub bad_flags: u64,
+}
+
+impl Stats {
+    /// All dropped candidates.
+    #[inline]
+    pub fn rejected(&self) -> u64 {
+        self.bad_crc + self.unknown_id + self.bad_flags
+    }
+}
+
+/// The outcome of [`Parser::feed`].
+#[derive(Debug)]
+#[must_use = "a frame and the rest of the input may be in the result"]
+pub enum Feed<'p, 'a> {
+    /// All input was consumed (kept in the parser's buffer or dropped); no complete frame yet.
+    Consumed,
+    /// A frame, and the input after it, which the parser has not looked at yet.
+    Frame {
+        /// The frame, borrowed from the input or from the parser until the next `feed`.
+        frame: ParsedFrame<'p>,
+        /// The input the parser has not consumed; feed it next.
+        remaining: &'a [u8],
+    },
+}
+
+/// A frame the parser accepted: its checksum matched, unless its id was unknown and the parser
+/// passes unknown ids through.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ParsedFrame<'p> {
+    frame: AnyFrame<&'p [u8]>,
+    meta: Option<&'static MessageMeta>,
+}
+
+impl<'p> ParsedFrame<'p> {
+    /// The frame view (MAVLink 1 or 2).
+    #[inline]
+    pub fn frame(&self) -> &AnyFrame<&'p [u8]> {
+        &self.frame
+    }
+
+    /// The MAVLink 2 view, if this is a MAVLink 2 frame (for example to verify its signature).
+    #[inline]
+    pub fn as_v2(&self) -> Option<&v2::Frame<&'p [u8]>> {
+        self.frame.as_v2()
+    }
+
+    /// The table entry of the message id, or `None` for an unknown id passed through unchecked.
+    #[inline]
+    pub fn meta(&self) -> Option<&'static MessageMeta> {
+        self.meta
+    }
+
+    /// Whether the checksum was verified: false only for unknown ids passed through.
+    #[inline]
+    pub fn is_checked(&self) -> bool {
+        self.meta.is_some()
+    }
+
+    /// The sender fields.
+    #[inline]
+    pub fn header(&self) -> Header {
+        self.frame.header()
+    }
+
+    /// The message id.
+    #[inline]
+    pub fn msg_id(&self) -> u32 {
+        self.frame.msg_id()
+    }
+
+    /// The payload as sent (possibly truncated).
+    #[inline]
+    pub fn payload(&self) -> &'p [u8] {
+        let (bytes, head) = match self.frame {
+            AnyFrame::V1(f) => (f.into_inner(), v1::HEADER_LEN),
+            AnyFrame::V2(f) => (f.into_inner(), v2::HEADER_LEN),
+        };
+        let len = usize::from(self.frame.payload_len());
+        bytes.get(head..head + len).unwrap_or_default()
+    }
+
+    /// The whole frame, signature included.
+    #[inline]
+    pub fn as_bytes(&self) -> &'p [u8] {
+        let bytes = match self.frame {
+            AnyFrame::V1(f) => f.into_inner(),
+            AnyFrame::V2(f) => f.into_inner(),
+        };
+        bytes.get(..self.frame.frame_len()).unwrap_or(bytes)
+    }
+
+    /// Decodes the payload as a message of dialect `D` (zero-filling a truncated payload).
+    #[inline]
+    pub fn decode<D: Dialect>(&self) -> Result<D, UnknownMessageId> {
+        self.frame.decode()
+    }
+}
+
+/// Why a candidate was dropped.
+#[derive(Debug, Clone, Copy)]
+enum Reject {
+    BadCrc,
+    UnknownId,
+    BadFlags,
+}
+
+/// What the bytes of a candidate (starting at its magic byte) say so far.
+#[derive(Debug, Clone, Copy)]
+enum Eval {
+    /// The next decision needs this many candidate bytes.
+    NeedMore(usize),
+    Reject(Reject),
+    Accept {
+        len: usize,
+        meta: Option<&'static MessageMeta>,
+    },
+}
+
+/// Where an accepted frame lies.
+enum Found {
+    Buffer(usize, Option<&'static MessageMeta>),
+    Input(usize, Option<&'static MessageMeta>),
+}
+
+/// The stream parser, with an internal buffer of `N` bytes for frames split across `feed`
+/// calls.
+///
+/// `N` must be at least [`v2::MAX_FRAME_LEN`] (280, the default); a smaller `N` fails to
+/// compile:
+///
+/// ```compile_fail
+/// # use ferrolink_runtime::mavlink::parser::Parser;
+/// let p = Parser::<100>::new(&[]);
+/// ```
+///
+/// Unknown message ids are dropped by default, since their checksum cannot be verified without
+/// their CRC_EXTRA. [`pass_unknown_ids`](Self::pass_unknown_ids) hands them out unchecked
+/// instead, as a router may want. That mode trusts the length byte of any such candidate, so a
+/// false magic byte that looks like the header of an unknown message can swallow the frames
+/// inside its claimed length.
+#[derive(Clone)]
+pub struct Parser<const N: usize = { v2::MAX_FRAME_LEN }> {
+    buf: [u8; N],
+    /// The current candidate starts at `buf[start]`; `buf[start..end]` is buffered.
+    start: usize,
+    end: usize,
+    /// Length of the frame handed out from `buf[start..]`, dropped at the next `feed`.
+    pending: usize,
+    table: &'static [MessageMeta],
+    pass_unknown: bool,
+    stats: Stats,
+}
+
+impl<const N: usize> fmt::Debug for Parser<N> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Parser")
+            .field("capacity", &N)
+            .field("buffered", &self.buffered())
+            .field("messages", &self.table.len())
+            .field("pass_unknown_ids", &self.pass_unknown)
+            .field("stats", &self.stats)
+            .finish()
+    }
+}
+
+impl<const N: usize> Parser<N> {
+    const BUFFER_HOLDS_A_FRAME: () = assert!(
+        N >= v2::MAX_FRAME_LEN,
+        "Parser<N> needs N >= v2::MAX_FRAME_LEN (280)"
+    );
+
+    /// A parser checking frames against `table` (sorted by id, as [`Dialect::META`] is).
+    pub const fn new(table: &'static [MessageMeta]) -> Self {
+        #[allow(clippy::let_unit_value)]
+        let () = Self::BUFFER_HOLDS_A_FRAME;
+        Self {
+            buf: [0; N],
+            start: 0,
+            end: 0,
+            pending: 0,
+            table,
+            pass_unknown: false,
+            stats: Stats {
+                frames: 0,
+                unchecked: 0,
+                garbage_bytes: 0,
+                bad_crc: 0,
+                unknown_id: 0,
+                bad_flags: 0,
+            },
+        }
+    }
+
+    /// A parser for dialect `D`.
+    pub const fn for_dialect<D: Dialect>() -> Self {
+        Self::new(D::META)
+    }
+
+    /// Whether frames with unknown message ids are handed out unchecked instead of dropped
+    /// (off by default). See the type documentation for the risk.
+    pub const fn pass_unknown_ids(mut self, pass: bool) -> Self {
+        self.pass_unknown = pass;
+        self
+    }
+
+    /// Changes whether unknown message ids are handed out unchecked.
+    pub fn set_pass_unknown_ids(&mut self, pass: bool) {
+        self.pass_unknown = pass;
+    }
+
+    /// The message table.
+    pub fn table(&self) -> &'static [MessageMeta] {
+        self.table
+    }
+
+    /// The counters.
+    pub fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    /// Returns the counters and zeroes them.
+    pub fn take_stats(&mut self) -> Stats {
+        core::mem::take(&mut self.stats)
+    }
+
+    /// Bytes held for an incomplete candidate (not counting a frame already handed out).
+    pub fn buffered(&self) -> usize {
+        self.end
+            .saturating_sub(self.start.saturating_add(self.pending))
+    }
+
+    /// Drops the buffered bytes (counted as garbage), e.g. after a link reset.
+    pub fn reset(&mut self) {
+        self.stats.garbage_bytes += self.buffered() as u64;
+        self.start = 0;
+        self.end = 0;
+        self.pending = 0;
+    }
+
+    /// Feeds bytes and returns the first complete frame, if any, with the input after it.
+    ///
+    /// Call `feed` again with `remaining` until it returns [`Feed::Consumed`]. A frame returned
+    /// from the internal buffer stays valid until the next call.
+    pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'p, 'a> {
+        self.start += self.pending;
+        self.pending = 0;
+
+        let found = 'found: {
+            // Buffered candidate first: it came before `input`.
+            while self.start < self.end {
+                let cand = self.buf.get(self.start..self.end).unwrap_or_default();
+                match cand.iter().position(|&b| is_magic(b)) {
+                    Some(0) => {}
+                    Some(skip) => {
+                        self.stats.garbage_bytes += skip as u64;
+                        self.start += skip;
+                        continue;
+                    }
+                    None => {
+                        self.stats.garbage_bytes += cand.len() as u64;
+                        self.start = self.end;
+                        break;
+                    }
+                }
+                match self.evaluate(cand) {
+                    Eval::Accept { len, meta } => {
+                        self.pending = len;
+                        break 'found Found::Buffer(len, meta);
+                    }
+                    Eval::Reject(why) => {
+                        self.count(why);
+                        self.start += 1;
+                    }
+                    Eval::NeedMore(need) => {
+                        if input.is_empty() {
+                            return Feed::Consumed;
+                        }
+                        let take = need.saturating_sub(cand.len()).min(input.len());
+                        self.append(need, input.get(..take).unwrap_or_default());
+                        input = input.get(take..).unwrap_or_default();
+                    }
+                }
+            }
+            self.start = 0;
+            self.end = 0;
+
+            // Nothing buffered: work on the input directly.
+            loop {
+                match input.iter().position(|&b| is_magic(b)) {
+                    Some(skip) => {
+                        self.stats.garbage_bytes += skip as u64;
+                        input = input.get(skip..).unwrap_or_default();
+                    }
+                    None => {
+                        self.stats.garbage_bytes += input.len() as u64;
+                        return Feed::Consumed;
+                    }
+                }
+                match self.evaluate(input) {
+                    Eval::Accept { len, meta } => break 'found Found::Input(len, meta),
+                    Eval::Reject(why) => {
+                        self.count(why);
+                        input = input.get(1..).unwrap_or_default();
+                    }
+                    Eval::NeedMore(_) => {
+                        // Shorter than the candidate needs, so shorter than a frame: it fits.
+                        self.append(input.len(), input);
+                        return Feed::Consumed;
+                    }
+                }
+            }
+        };
+
+        let (bytes, meta) = match found {
+            Found::Buffer(len, meta) => {
+                let bytes = self.buf.get(self.start..self.start + len);
+                (bytes.unwrap_or_default(), meta)
+            }
+            Found::Input(len, meta) => {
+                let (frame, rest) = input.split_at_checked(len).unwrap_or((input, &[]));
+                input = rest;
+                (frame, meta)
+            }
+        };
+        self.stats.frames += 1;
+        if meta.is_none() {
+            self.stats.unchecked += 1;
+        }
+        let frame = match bytes.first() {
+            Some(&v1::MAGIC) => AnyFrame::V1(v1::Frame::new_unchecked(bytes)),
+            _ => AnyFrame::V2(v2::Frame::new_unchecked(bytes)),
+        };
+        Feed::Frame {
+            frame: ParsedFrame { frame, meta },
+            remaining: input,
+        }
+    }
+
+    /// Feeds bytes and calls `on_frame` for every frame they complete; returns how many.
+    pub fn feed_all(
+        &mut self,
+        mut input: &[u8],
+        mut on_frame: impl FnMut(ParsedFrame<'_>),
+    ) -> usize {
+        let mut n = 0;
+        while let Feed::Frame { frame, remaining } = self.feed(input) {
+            on_frame(frame);
+            input = remaining;
+            n += 1;
+        }
+        n
+    }
+
+    /// Appends `bytes` to the buffered candidate, which will need `need` bytes in all, moving it
+    /// to the front of the buffer first if it would not fit.
+    fn append(&mut self, need: usize, bytes: &[u8]) {
+        if self.start + need > N {
+            self.buf.copy_within(self.start..self.end, 0);
+            self.end -= self.start;
+            self.start = 0;
+        }
+        match self.buf.get_mut(self.end..self.end + bytes.len()) {
+            Some(dst) => {
+                dst.copy_from_slice(bytes);
+                self.end += bytes.len();
+            }
+            // Cannot happen (a candidate never needs more than a frame and N holds one); if it
+            // did, drop the bytes rather than panic.
+            None => self.stats.garbage_bytes += bytes.len() as u64,
+        }
+    }
+
+    #[inline]
+    fn count(&mut self, why: Reject) {
+        match why {
+            Reject::BadCrc => self.stats.bad_crc += 1,
+            Reject::UnknownId => self.stats.unknown_id += 1,
+            Reject::BadFlags => self.stats.bad_flags += 1,
+        }
+    }
+
+    /// Judges the candidate starting at `c[0]` (a magic byte) as far as its bytes allow.
+    #[inline]
+    fn evaluate(&self, c: &[u8]) -> Eval {
+        if c.first() == Some(&v1::MAGIC) {
+            self.evaluate_v1(c)
+        } else {
+            self.evaluate_v2(c)
+        }
+    }
+
+    #[inline]
+    fn lookup(&self, id: u32) -> Result<Option<&'static MessageMeta>, Reject> {
+        match find_meta(self.table, id) {
+            Some(meta) => Ok(Some(meta)),
+            None if self.pass_unknown => Ok(None),
+            None => Err(Reject::UnknownId),
+        }
+    }
+
+    #[inline]
+    fn evaluate_v2(&self, c: &[u8]) -> Eval {
+        let (Some(&len), Some(&incompat)) = (c.get(1), c.get(2)) else {
+            return Eval::NeedMore(3);
+        };
+        if incompat & !v2::KNOWN_INCOMPAT_FLAGS != 0 {
+            return Eval::Reject(Reject::BadFlags);
+        }
+        let Some(head) = c.first_chunk::<{ v2::HEADER_LEN }>() else {
+            return Eval::NeedMore(v2::HEADER_LEN);
+        };
+        let meta = match self.lookup(u32::from_le_bytes([head[7], head[8], head[9], 0])) {
+            Ok(meta) => meta,
+            Err(why) => return Eval::Reject(why),
+        };
+        let body = v2::HEADER_LEN + usize::from(len);
+        let signature = if incompat & v2::INCOMPAT_SIGNED != 0 {
+            v2::SIGNATURE_LEN
+        } else {
+            0
+        };
+        let total = body + v2::CHECKSUM_LEN + signature;
+        let Some(frame) = c.get(..total) else {
+            return Eval::NeedMore(total);
+        };
+        accept_if_crc_matches(frame, v2::HEADER_LEN, body, total, meta)
+    }
+
+    #[inline]
+    fn evaluate_v1(&self, c: &[u8]) -> Eval {
+        let Some(head) = c.first_chunk::<{ v1::HEADER_LEN }>() else {
+            return Eval::NeedMore(v1::HEADER_LEN);
+        };
+        let meta = match self.lookup(u32::from(head[5])) {
+            Ok(meta) => meta,
+            Err(why) => return Eval::Reject(why),
+        };
+        let body = v1::HEADER_LEN + usize::from(head[1]);
+        let total = body + v1::CHECKSUM_LEN;
+        let Some(frame) = c.get(..total) else {
+            return Eval::NeedMore(total);
+        };
+        accept_if_crc_matches(frame, v1::HEADER_LEN, body, total, meta)
+    }
+}
+
+/// Checks the checksum of a complete candidate `frame` (header of `head_len` bytes, body of
+/// `body` bytes) if its message is known.
+#[inline]
+fn accept_if_crc_matches(
+    frame: &[u8],
+    head_len: usize,
+    body: usize,
+    total: usize,
+    meta: Option<&'static MessageMeta>,
+) -> Eval {
+    let Some(m) = meta else {
+        return Eval::Accept { len: total, meta };
+    };
+    let head = frame.get(1..head_len).unwrap_or_default();
+    let payload = frame.get(head_len..body).unwrap_or_default();
+    let sent = match frame.get(body..body + 2) {
+        Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
+        _ => return Eval::Reject(Reject::BadCrc),
+    };
+    if checksum(head, payload, m.crc_extra) == sent {
+        Eval::Accept { len: total, meta }
+    } else {
+        Eval::Reject(Reject::BadCrc)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::vec::Vec;
+
+    use super::*;
+    use crate::mavlink::testing::{
+        golden_heartbeat, hex, Big, ExtMsg, TestDialect, GOLDEN_SIGNED, GOLDEN_V1, GOLDEN_V2,
+    };
+    use crate::mavlink::{Dialect, Message};
+
+    type P = Parser;
+
+    /// Feeds `stream` in chunks of `chunk` bytes and collects (frame bytes, checked) pairs.
+    fn collect(parser: &mut P, stream: &[u8], chunk: usize) -> Vec<(Vec<u8>, bool)> {
+        let mut out = Vec::new();
+        for piece in stream.chunks(chunk) {
+            parser.feed_all(piece, |f| out.push((f.as_bytes().to_vec(), f.is_checked())));
+        }
+        out
+    }
+
+    fn accounted(parser: &P) -> u64 {
+        let s = parser.stats();
+        s.garbage_bytes + s.rejected() + parser.buffered() as u64
+    }
+
+    #[test]
+    fn golden_frames_come_out_whole() {
+        let mut stream = hex(GOLDEN_V2);
+        stream.extend(hex(GOLDEN_V1));
+        stream.extend(hex(GOLDEN_SIGNED));
+        for chunk in 1..=stream.len() {
+            let mut p = P::for_dialect::<TestDialect>();
+            let got = collect(&mut p, &stream, chunk);
+            assert_eq!(
+                got,
+                [
+                    (hex(GOLDEN_V2), true),
+                    (hex(GOLDEN_V1), true),
+                    (hex(GOLDEN_SIGNED), true)
+                ],
+                "chunk {chunk}"
+            );
+            assert_eq!(p.stats().frames, 3);
+            assert_eq!(accounted(&p), 0);
+        }
+    }
+
+    #[test]
+    fn frames_decode_and_carry_signatures() {
+        let signed = hex(GOLDEN_SIGNED);
+        let mut p = P::for_dialect::<TestDialect>();
+        let Feed::Frame { frame, remaining } = p.feed(&signed) else {
+            panic!("no frame")
+        };
+        assert!(remaining.is_empty());
+        assert_eq!(frame.payload(), &signed[10..19]);
+        assert_eq!(
+            frame.decode::<TestDialect>(),
+            Ok(TestDialect::Heartbeat(golden_heartbeat()))
+        );
+        assert_eq!(frame.meta().map(|m| m.name), Some("HEARTBEAT"));
+        let v2 = frame.as_v2().unwrap();
+        assert!(v2.is_signed());
+        assert_eq!(v2.link_id(), Some(7));
+        assert_eq!(v2.timestamp(), Some(0x12_3456_789A));
+        assert!(frame.frame().is_signed());
+    }
+
+    #[test]
+    fn bad_crc_unknown_id_and_flags_are_counted() {
+        let mut stream = Vec::new();
+        let mut bad = hex(GOLDEN_V2);
+        bad[19] ^= 1; // checksum
+        stream.extend(&bad);
+        let mut unknown = hex(GOLDEN_V2);
+        unknown[7] = 1; // id 1
+        stream.extend(&unknown);
+        let mut flags = hex(GOLDEN_V2);
+        flags[2] = 0x02;
+        stream.extend(&flags);
+        stream.extend(hex(GOLDEN_V2));
+        let mut p = P::for_dialect::<TestDialect>();
+        let got = collect(&mut p, &stream, stream.len());
+        assert_eq!(got, [(hex(GOLDEN_V2), true)]);
+        let s = *p.stats();
+        assert_eq!(
+            (s.bad_crc, s.unknown_id, s.bad_flags, s.frames),
+            (1, 1, 1, 1)
+        );
+        // The rest of each rejected candidate was rescanned as garbage (no magic inside).
+        assert_eq!(s.garbage_bytes, 3 * 20);
+        assert_eq!(accounted(&p) + 21, stream.len() as u64);
+    }
+
+    #[test]
+    fn unknown_ids_pass_through_when_asked() {
+        let mut unknown = hex(GOLDEN_V2);
+        unknown[7] = 1;
+        unknown[19] ^= 0x55; // cannot be checked anyway
+        let mut p = P::for_dialect::<TestDialect>().pass_unknown_ids(true);
+        let got = collect(&mut p, &unknown, 4);
+        assert_eq!(got, [(unknown.clone(), false)]);
+        assert_eq!(p.stats().unchecked, 1);
+        let mut v1 = hex(GOLDEN_V1);
+        v1[5] = 9;
+        let got = collect(&mut p, &v1, 1);
+        assert_eq!(got, [(v1.clone(), false)]);
+        // Known ids are still checked.
+        let mut bad = hex(GOLDEN_V1);
+        bad[16] ^= 1;
+        p.set_pass_unknown_ids(false);
+        assert!(collect(&mut p, &bad, 3).is_empty());
+        assert_eq!(p.stats().bad_crc, 1);
+    }
+
+    #[test]
+    fn false_magic_with_long_length_does_not_swallow_frames() {
+        // A header that passes every early check (known id, no flags) and claims 255 bytes.
+        let mut stream = std::vec![0xFD, 0xFF, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00];
+        let mut expected = Vec::new();
+        let mut out = [0u8; 300];
+        for seq in 0..12u8 {
+            let n = v2::encode(Header::new(seq, 1, 1), &golden_heartbeat(), &mut out).unwrap();
+            stream.extend_from_slice(&out[..n]);
+            expected.push((out[..n].to_vec(), true));
+        }
+        // Also a MAVLink 1 false start right before the end.
+        stream.extend_from_slice(&[0xFE, 0xFF, 0, 1, 1, 0]);
+        let n = v1::encode(Header::new(99, 1, 1), &golden_heartbeat(), &mut out).unwrap();
+        stream.extend_from_slice(&out[..n]);
+        for chunk in [1, 2, 5, 21, 64, 255, stream.len()] {
+            let mut p = P::for_dialect::<TestDialect>();
+            let got = collect(&mut p, &stream, chunk);
+            // The final MAVLink 1 frame is hidden inside the MAVLink 1 false start's claimed
+            // length, which the stream never completes.
+            assert_eq!(got, expected, "chunk {chunk}");
+            assert_eq!(p.stats().bad_crc, 1, "chunk {chunk}");
+            assert_eq!(p.buffered(), 6 + 17);
+            // A frame completing the false start's length makes it fail and frees the frame.
+            let filler = [0u8; 255];
+            let got = collect(&mut p, &filler, chunk);
+            assert_eq!(got.len(), 1);
+            assert_eq!(got[0].0, out[..n]);
+            assert_eq!(p.stats().bad_crc, 2);
+        }
+    }
+
+    #[test]
+    fn whole_frames_in_the_input_are_not_copied() {
+        let golden = hex(GOLDEN_V2);
+        let mut p = P::for_dialect::<TestDialect>();
+        let Feed::Frame { frame, remaining } = p.feed(&golden) else {
+            panic!()
+        };
+        assert!(core::ptr::eq(frame.as_bytes().as_ptr(), golden.as_ptr()));
+        assert!(remaining.is_empty());
+    }
+
+    #[test]
+    fn frame_from_buffer_stays_until_next_feed() {
+        let golden = hex(GOLDEN_V2);
+        let mut doubled = golden.clone();
+        doubled.extend(&golden);
+        let mut p = P::for_dialect::<TestDialect>();
+        assert!(matches!(p.feed(&doubled[..15]), Feed::Consumed));
+        assert_eq!(p.buffered(), 15);
+        match p.feed(&doubled[15..]) {
+            Feed::Frame { frame, remaining } => {
+                assert_eq!(frame.as_bytes(), &golden[..]);
+                assert_eq!(remaining, &golden[..]);
+            }
+            Feed::Consumed => panic!(),
+        }
+        assert_eq!(p.buffered(), 0);
+        assert_eq!(p.feed_all(&golden, |_| {}), 1);
+        p.reset();
+        assert_eq!(p.stats().garbage_bytes, 0);
+        assert!(matches!(p.feed(&golden[..3]), Feed::Consumed));
+        p.reset();
+        assert_eq!(p.take_stats().garbage_bytes, 3);
+        assert_eq!(*p.stats(), Stats::default());
+    }
+
+    #[test]
+    fn largest_frames_with_minimal_buffer() {
+        let mut out = [0u8; v2::MAX_FRAME_LEN];
+        let mut stream = std::vec![0xFD, 0xFD, 0x00];
+        let big = Big([0xFD; 255]);
+        let n = v2::encode(Header::new(1, 2, 3), &big, &mut out).unwrap();
+        for _ in 0..3 {
+            stream.extend_from_slice(&out[..n]);
+        }
+        let ext = ExtMsg {
+            ext_u32: 5,
+            ..Default::default()
+        };
+        let m = v2::encode(Header::new(1, 2, 3), &ext, &mut out[..100]).unwrap();
+        stream.extend_from_slice(&out[..m]);
+        for chunk in [1, 3, 100, 279, 280, 281, stream.len()] {
+            let mut p = Parser::<280>::new(TestDialect::META);
+            let mut ids = Vec::new();
+            for piece in stream.chunks(chunk) {
+                p.feed_all(piece, |f| {
+                    assert!(f.is_checked());
+                    ids.push(f.msg_id());
+                });
+            }
+            assert_eq!(
+                ids,
+                [Big::ID, Big::ID, Big::ID, ExtMsg::ID],
+                "chunk {chunk}"
+            );
+        }
+    }
+
+    #[test]
+    fn debug_output_is_short() {
+        let p = P::for_dialect::<TestDialect>();
+        let s = std::format!("{p:?}");
+        assert!(s.starts_with("Parser { capacity: 280"), "{s}");
+    }
+}
