@@ -29,12 +29,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         center_limit: 128,
         starboard_limit: 243,
     };
-    println!("RUDDER_RAW: id {}, CRC_EXTRA {}, {} bytes", RudderRaw::ID, RudderRaw::CRC_EXTRA, RudderRaw::MAX_LEN);
+    println!(
+        "RUDDER_RAW: id {}, CRC_EXTRA {}, {} bytes",
+        RudderRaw::ID,
+        RudderRaw::CRC_EXTRA,
+        RudderRaw::MAX_LEN
+    );
 
     // Encode: MAVLink 2, trailing zero bytes truncated.
     let mut link = Vec::new();
     let mut frame = [0u8; v2::MAX_FRAME_LEN];
-    for (seq, msg) in [Message::from(heartbeat), Message::from(rudder)].iter().enumerate() {
+    for (seq, msg) in [Message::from(heartbeat), Message::from(rudder)]
+        .iter()
+        .enumerate()
+    {
         let n = v2::encode_dialect(Header::new(seq as u8, 1, 1), msg, &mut frame)?;
         println!("tx {:<11} {}", msg.meta().name, hex(&frame[..n]));
         link.extend_from_slice(&frame[..n]);
@@ -57,10 +65,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let signed = f
                 .as_v2()
                 .filter(|v| v.is_signed())
-                .map(|v| verifier.verify(v, now).map_or_else(|e| format!(" (signature: {e})"), |()| " (signed, verified)".into()))
+                .map(|v| {
+                    verifier.verify(v, now).map_or_else(
+                        |e| format!(" (signature: {e})"),
+                        |()| " (signed, verified)".into(),
+                    )
+                })
                 .unwrap_or_default();
             match f.decode::<Message>() {
-                Ok(msg) => println!("rx seq {} from {}:{} {msg:?}{signed}", f.header().seq, f.header().sysid, f.header().compid),
+                Ok(msg) => println!(
+                    "rx seq {} from {}:{} {msg:?}{signed}",
+                    f.header().seq,
+                    f.header().sysid,
+                    f.header().compid
+                ),
                 Err(e) => println!("rx undecodable: {e}"),
             }
         });

@@ -37,11 +37,15 @@ fn scratch() -> PathBuf {
 }
 
 fn script(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scripts")
+        .join(name)
 }
 
 fn run(cmd: &mut Command) -> String {
-    let out = cmd.output().unwrap_or_else(|e| panic!("cannot run {cmd:?}: {e}"));
+    let out = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {cmd:?}: {e}"));
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(
         out.status.success(),
@@ -58,7 +62,14 @@ fn runner(xml: &Path, args: &[&str]) -> String {
     run(Command::new(cargo)
         .current_dir(workspace())
         .env("FERROLINK_XML", xml)
-        .args(["run", "--quiet", "--release", "-p", "ferrolink-conformance", "--target-dir"])
+        .args([
+            "run",
+            "--quiet",
+            "--release",
+            "-p",
+            "ferrolink-conformance",
+            "--target-dir",
+        ])
         .arg(scratch().join("target"))
         .arg("--")
         .args(args))
@@ -67,7 +78,10 @@ fn runner(xml: &Path, args: &[&str]) -> String {
 fn check_dialect(python: &Path, xml: &Path, min_messages: usize) {
     let name = xml.file_stem().unwrap().to_string_lossy().into_owned();
     let vectors = scratch().join(format!("{name}.jsonl"));
-    run(Command::new(python).arg(script("gen_vectors.py")).arg(xml).arg(&vectors));
+    run(Command::new(python)
+        .arg(script("gen_vectors.py"))
+        .arg(xml)
+        .arg(&vectors));
     let summary = runner(xml, &[vectors.to_str().unwrap()]);
     let line = summary.lines().last().unwrap_or_default().to_string();
     eprintln!("{name}: {line}");
@@ -90,13 +104,17 @@ fn require() -> Option<(PathBuf, PathBuf)> {
 
 #[test]
 fn common_xml_every_message_both_directions() {
-    let Some((python, dialects)) = require() else { return };
+    let Some((python, dialects)) = require() else {
+        return;
+    };
     check_dialect(&python, &dialects.join("common.xml"), 210);
 }
 
 #[test]
 fn all_xml_every_message_both_directions() {
-    let Some((python, dialects)) = require() else { return };
+    let Some((python, dialects)) = require() else {
+        return;
+    };
     check_dialect(&python, &dialects.join("all.xml"), 353);
 }
 
@@ -111,15 +129,27 @@ fn our_dialects_match_the_reference() {
 /// A raw capture with garbage between frames decodes to exactly what pymavlink decodes.
 #[test]
 fn stream_capture_matches_pymavlink() {
-    let Some((python, dialects)) = require() else { return };
+    let Some((python, dialects)) = require() else {
+        return;
+    };
     let xml = dialects.join("common.xml");
     let (bin, expected) = (scratch().join("stream.bin"), scratch().join("stream.jsonl"));
-    run(Command::new(&python).arg(script("gen_stream.py")).arg(&xml).arg(&bin).arg(&expected));
+    run(Command::new(&python)
+        .arg(script("gen_stream.py"))
+        .arg(&xml)
+        .arg(&bin)
+        .arg(&expected));
     let ours = runner(&xml, &["--stream", bin.to_str().unwrap()]);
     let parse = |text: &str| -> Vec<serde_json::Value> {
-        text.lines().filter(|l| !l.is_empty()).map(|l| serde_json::from_str(l).expect("json")).collect()
+        text.lines()
+            .filter(|l| !l.is_empty())
+            .map(|l| serde_json::from_str(l).expect("json"))
+            .collect()
     };
-    let (ours, theirs) = (parse(&ours), parse(&std::fs::read_to_string(expected).unwrap()));
+    let (ours, theirs) = (
+        parse(&ours),
+        parse(&std::fs::read_to_string(expected).unwrap()),
+    );
     assert_eq!(ours.len(), theirs.len());
     for (a, b) in ours.iter().zip(&theirs) {
         assert_eq!(a, b);
