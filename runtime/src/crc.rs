@@ -2,12 +2,19 @@
 
 use ::crc::{Crc, Digest, Table, CRC_16_MCRF4XX};
 
+/// Bytes the CRC table consumes per step: 16 with the `fast-crc` feature (an 8 KiB table,
+/// several times faster on long frames), else 1 (a 512-byte table, for small flash).
+#[cfg(feature = "fast-crc")]
+const SLICES: usize = 16;
+#[cfg(not(feature = "fast-crc"))]
+const SLICES: usize = 1;
+
 /// CRC-16/MCRF4XX: poly 0x1021 reflected, init 0xFFFF, no final xor. MAVLink's checksum and
 /// NDLCom's FCS. `check("123456789") == 0x6F91`.
-pub const MCRF4XX: Crc<u16, Table<1>> = Crc::<u16, Table<1>>::new(&CRC_16_MCRF4XX);
+pub const MCRF4XX: Crc<u16, Table<SLICES>> = Crc::<u16, Table<SLICES>>::new(&CRC_16_MCRF4XX);
 
 /// A running CRC-16/MCRF4XX.
-pub type Mcrf4xxDigest = Digest<'static, u16, Table<1>>;
+pub type Mcrf4xxDigest = Digest<'static, u16, Table<SLICES>>;
 
 /// CRC-16/MCRF4XX of `data`.
 #[inline]

@@ -330,12 +330,11 @@ fn emit_in_place<const H: usize>(
     if let Some(extra) = p.get_mut(n..len) {
         extra.fill(0);
     }
-    let payload = p.get(..len).unwrap_or_default();
     // `len` fits in a byte: it is at most MAX_PAYLOAD_LEN.
-    let head = make_head(len as u8);
-    let crc = checksum(head.get(1..).unwrap_or_default(), payload, crc_extra);
-    *h = head;
-    rest.get_mut(len..len + 2)?
+    *h = make_head(len as u8);
+    // Header and payload are contiguous now: one CRC pass over both.
+    let crc = body_checksum(out.get(..H + len).unwrap_or_default(), crc_extra);
+    out.get_mut(H + len..H + len + 2)?
         .copy_from_slice(&crc.to_le_bytes());
     Some(H + len + 2)
 }

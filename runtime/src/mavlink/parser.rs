@@ -38,7 +38,7 @@
 
 use core::fmt;
 
-use super::frame::{checksum, is_magic, AnyFrame, Header};
+use super::frame::{body_checksum, is_magic, AnyFrame, Header};
 use super::{find_meta, v1, v2, Dialect, MessageMeta, UnknownMessageId};
 
 /// What a [`Parser`] accepted and dropped so far.
@@ -486,7 +486,7 @@ impl<const N: usize> Parser<N> {
         let Some(frame) = c.get(..total) else {
             return Eval::NeedMore(total);
         };
-        accept_if_crc_matches(frame, v2::HEADER_LEN, body, total, meta)
+        accept_if_crc_matches(frame, body, total, meta)
     }
 
     #[inline]
@@ -503,7 +503,7 @@ impl<const N: usize> Parser<N> {
         let Some(frame) = c.get(..total) else {
             return Eval::NeedMore(total);
         };
-        accept_if_crc_matches(frame, v1::HEADER_LEN, body, total, meta)
+        accept_if_crc_matches(frame, body, total, meta)
     }
 }
 
@@ -512,7 +512,6 @@ impl<const N: usize> Parser<N> {
 #[inline]
 fn accept_if_crc_matches(
     frame: &[u8],
-    head_len: usize,
     body: usize,
     total: usize,
     meta: Option<&'static MessageMeta>,
@@ -520,13 +519,11 @@ fn accept_if_crc_matches(
     let Some(m) = meta else {
         return Eval::Accept { len: total, meta };
     };
-    let head = frame.get(1..head_len).unwrap_or_default();
-    let payload = frame.get(head_len..body).unwrap_or_default();
     let sent = match frame.get(body..body + 2) {
         Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
         _ => return Eval::Reject(Reject::BadCrc),
     };
-    if checksum(head, payload, m.crc_extra) == sent {
+    if body_checksum(frame.get(..body).unwrap_or_default(), m.crc_extra) == sent {
         Eval::Accept { len: total, meta }
     } else {
         Eval::Reject(Reject::BadCrc)
