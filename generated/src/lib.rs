@@ -5,4 +5,6 @@
 //! stale.
 #![no_std]
 
+// Formatted by the generator (prettyplease); rustfmt would make it stale.
+#[rustfmt::skip]
 pub mod mavlink;

@@ -624,29 +624,75 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         id: u32,
         payload: &[u8],
     ) -> ::core::result::Result<Self, ::ferrolink_runtime::mavlink::UnknownMessageId> {
-        ::core::result::Result::Ok(match id {
-            0u32 => Self::Heartbeat(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            2u32 => Self::SystemTime(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            4u32 => Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            30u32 => Self::Attitude(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            76u32 => Self::CommandLong(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            77u32 => Self::CommandAck(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            110u32 => {
-                Self::FileTransferProtocol(::ferrolink_runtime::mavlink::Message::decode(payload))
-            }
-            180u32 => Self::Bench1(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            181u32 => Self::Bench9(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            182u32 => Self::Bench16(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            183u32 => Self::Bench40(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            184u32 => Self::Bench200(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            185u32 => Self::Bench248(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            253u32 => Self::Statustext(::ferrolink_runtime::mavlink::Message::decode(payload)),
-            _ => {
-                return ::core::result::Result::Err(
-                    ::ferrolink_runtime::mavlink::UnknownMessageId(id),
-                );
-            }
-        })
+        ::core::result::Result::Ok(
+            match id {
+                0u32 => {
+                    Self::Heartbeat(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                2u32 => {
+                    Self::SystemTime(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                4u32 => {
+                    Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload))
+                }
+                30u32 => {
+                    Self::Attitude(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                76u32 => {
+                    Self::CommandLong(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                77u32 => {
+                    Self::CommandAck(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                110u32 => {
+                    Self::FileTransferProtocol(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                180u32 => {
+                    Self::Bench1(::ferrolink_runtime::mavlink::Message::decode(payload))
+                }
+                181u32 => {
+                    Self::Bench9(::ferrolink_runtime::mavlink::Message::decode(payload))
+                }
+                182u32 => {
+                    Self::Bench16(::ferrolink_runtime::mavlink::Message::decode(payload))
+                }
+                183u32 => {
+                    Self::Bench40(::ferrolink_runtime::mavlink::Message::decode(payload))
+                }
+                184u32 => {
+                    Self::Bench200(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                185u32 => {
+                    Self::Bench248(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                253u32 => {
+                    Self::Statustext(
+                        ::ferrolink_runtime::mavlink::Message::decode(payload),
+                    )
+                }
+                _ => {
+                    return ::core::result::Result::Err(
+                        ::ferrolink_runtime::mavlink::UnknownMessageId(id),
+                    );
+                }
+            },
+        )
     }
     fn id(&self) -> u32 {
         match self {
@@ -674,7 +720,9 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
             Self::Attitude(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
             Self::CommandLong(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
             Self::CommandAck(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
-            Self::FileTransferProtocol(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
+            Self::FileTransferProtocol(m) => {
+                ::ferrolink_runtime::mavlink::Message::encode(m, buf)
+            }
             Self::Bench1(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
             Self::Bench9(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
             Self::Bench16(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
