@@ -24,6 +24,15 @@ pub fn write_if_changed(path: &Path, content: &str) -> io::Result<bool> {
     Ok(true)
 }
 
+/// The files whose content under `dir` differs from what was generated (or that are missing).
+pub fn stale<'a>(dir: &Path, files: &'a [GeneratedFile]) -> Vec<&'a str> {
+    files
+        .iter()
+        .filter(|f| std::fs::read(dir.join(&f.name)).ok().as_deref() != Some(f.content.as_bytes()))
+        .map(|f| f.name.as_str())
+        .collect()
+}
+
 /// Writes every file under `dir`; returns the names written.
 pub fn write_all(dir: &Path, files: &[GeneratedFile]) -> io::Result<Vec<String>> {
     let mut written = Vec::new();

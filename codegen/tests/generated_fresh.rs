@@ -29,14 +29,7 @@ fn generated_bindings_are_fresh() {
         .generate_modules()
         .unwrap_or_else(|e| panic!("{e}"));
     let out = Path::new("generated/src/mavlink");
-    let stale: Vec<&str> = generated
-        .files
-        .iter()
-        .filter(|f| {
-            std::fs::read_to_string(out.join(&f.name)).ok().as_deref() != Some(f.content.as_str())
-        })
-        .map(|f| f.name.as_str())
-        .collect();
+    let stale = ferrolink_codegen::write::stale(out, &generated.files);
     if stale.is_empty() {
         return;
     }

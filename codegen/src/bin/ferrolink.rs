@@ -88,14 +88,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             let generated = config.generate_modules()?;
             print_warnings(&generated.warnings);
             if check {
-                let stale: Vec<&str> = generated
-                    .files
-                    .iter()
-                    .filter(|f| {
-                        std::fs::read_to_string(out.join(&f.name)).ok() != Some(f.content.clone())
-                    })
-                    .map(|f| f.name.as_str())
-                    .collect();
+                let stale = ferrolink_codegen::write::stale(&out, &generated.files);
                 if stale.is_empty() {
                     eprintln!("{} is up to date", out.display());
                     return Ok(ExitCode::SUCCESS);
