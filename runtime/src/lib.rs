@@ -5,6 +5,7 @@
 //! | feature   | what it brings |
 //! |-----------|----------------|
 //! | `mavlink` | MAVLink v1/v2 frames, the backtracking stream parser, message signing |
+//! | `ndlcom`  | NDLCom frames, stream parser, packet counters, router and bridge |
 //! | `fast-crc` | a 16-bytes-per-step CRC table (8 KiB) instead of the 512-byte one; on by default |
 //! | `serde`   | serde support for generated types (pymavlink's `to_dict()` JSON form) |
 //! | `std`     | `std::error::Error` for the error types |
@@ -21,6 +22,8 @@ extern crate std;
 pub mod crc;
 #[cfg(feature = "mavlink")]
 pub mod mavlink;
+#[cfg(feature = "ndlcom")]
+pub mod ndlcom;
 #[cfg(feature = "serde")]
 pub mod serde_helpers;
 pub mod wire;

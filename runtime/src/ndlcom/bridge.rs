@@ -1,0 +1,713 @@
+//! A bridge: a [`Router`] with a parser and an output queue per interface, forwarding either
+//! store & forward or cut-through, chosen per interface pair.
+//!
+//! - **Store & forward** (the default): a frame is parsed whole, its FCS checked, the routing
+//!   table updated, and the frame re-encoded into the queue of every interface it goes to. A
+//!   frame that does not fit a queue is not queued at all and is counted in that interface's
+//!   [`IfaceStats::queue_overflows`]: nothing is dropped silently, nothing is sent half.
+//! - **Cut-through**: as soon as the receiver byte of a frame is in, the frame's bytes are
+//!   streamed to the outputs the table names, so each hop adds a few byte times instead of a
+//!   whole frame. An output only takes a cut-through stream when it is idle; otherwise that
+//!   output gets the frame store & forward. A broken frame passes (the next hop drops it), a
+//!   frame that stalls longer than the byte timeout is cut off with a flag so it cannot block
+//!   the output, and the routing table learns only once the FCS checked.
+//!
+//! The bridge does no I/O: feed it received bytes with [`Bridge::receive`], call
+//! [`Bridge::poll`] with the time now and then, and pull bytes to send with
+//! [`Bridge::transmit`]. Frames for the node itself (own ids and broadcasts) come back through
+//! the `on_local` callback, and [`Bridge::send`] sends the node's own frames.
+//!
+//! ```
+//! use ferrolink_runtime::ndlcom::{bridge::{Bridge, Mode}, encode, storage_len, Header};
+//!
+//! // 2 interfaces, payloads up to 64 bytes, 256-byte queues.
+//! let mut bridge = Bridge::<2, { storage_len(64) }, 256>::new();
+//! bridge.router_mut().add_own_id(1);
+//! bridge.set_mode(0, 1, Mode::CutThrough);
+//!
+//! let mut frame = [0u8; 32];
+//! let n = encode(&Header::new(7, 9, 0, 2), &[0xab, 0xcd], &mut frame).unwrap();
+//! // The first two bytes (flag, receiver) are enough to start sending on interface 1.
+//! bridge.receive(0, &frame[..2], 0, |_| {});
+//! let mut out = [0u8; 32];
+//! assert_eq!(bridge.transmit(1, &mut out), 2);
+//! bridge.receive(0, &frame[2..n], 20, |_| {});
+//! let m = bridge.transmit(1, &mut out[2..]);
+//! assert_eq!(&out[..2 + m], &frame[..n]);
+//! assert_eq!(bridge.router().lookup(9), Some(0)); // learned once the FCS checked
+//! ```
+
+use super::counters::TxCounters;
+use super::parser::{Feed, Frame, Parser};
+use super::router::{Decision, Ports, Router};
+use super::{encode_with, encoded_len, EncodeError, Header, FLAG};
+
+/// How frames from one interface are forwarded to another.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Mode {
+    /// Receive whole, check, re-encode.
+    #[default]
+    StoreForward,
+    /// Start sending once the receiver byte is known.
+    CutThrough,
+}
+
+/// Counters of one interface.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct IfaceStats {
+    /// Bytes received.
+    pub rx_bytes: u64,
+    /// Intact frames received.
+    pub rx_frames: u64,
+    /// Bytes handed out by [`Bridge::transmit`].
+    pub tx_bytes: u64,
+    /// Frames queued (store & forward) or started (cut-through) on this interface.
+    pub tx_frames: u64,
+    /// Frames received whose FCS did not check.
+    pub crc_failures: u64,
+    /// Frames received and dropped: cut short, oversize, bad escape.
+    pub dropped: u64,
+    /// Frames that did not fit this interface's queue, or overran its cut-through stream.
+    pub queue_overflows: u64,
+    /// Frames sent on this interface cut-through.
+    pub cut_through: u64,
+    /// Cut-through frames from this interface cut off by the byte timeout.
+    pub timeouts: u64,
+}
+
+/// A byte FIFO of `Q` bytes.
+#[derive(Debug, Clone)]
+struct Ring<const Q: usize> {
+    buf: [u8; Q],
+    head: usize,
+    len: usize,
+}
+
+impl<const Q: usize> Ring<Q> {
+    const fn new() -> Self {
+        Ring {
+            buf: [0; Q],
+            head: 0,
+            len: 0,
+        }
+    }
+
+    fn free(&self) -> usize {
+        Q - self.len
+    }
+
+    fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Appends `bytes` if they all fit; returns whether they did.
+    fn push(&mut self, bytes: &[u8]) -> bool {
+        if bytes.len() > self.free() {
+            return false;
+        }
+        for &b in bytes {
+            if let Some(slot) = self.buf.get_mut((self.head + self.len) % Q) {
+                *slot = b;
+            }
+            self.len += 1;
+        }
+        true
+    }
+
+    fn pop(&mut self, out: &mut [u8]) -> usize {
+        let n = out.len().min(self.len);
+        for slot in out.iter_mut().take(n) {
+            *slot = self.buf.get(self.head).copied().unwrap_or(0);
+            self.head = (self.head + 1) % Q;
+        }
+        self.len -= n;
+        n
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Output<const Q: usize> {
+    /// Whole frames, store & forward.
+    queue: Ring<Q>,
+    /// The cut-through frame being streamed; served before `queue`.
+    stream: Ring<Q>,
+    /// The input streaming into `stream`.
+    owner: Option<usize>,
+    /// A flag must close `stream` once there is room for it.
+    close_pending: bool,
+    stats: IfaceStats,
+}
+
+impl<const Q: usize> Output<Q> {
+    const fn new() -> Self {
+        Output {
+            queue: Ring::new(),
+            stream: Ring::new(),
+            owner: None,
+            close_pending: false,
+            stats: IfaceStats {
+                rx_bytes: 0,
+                rx_frames: 0,
+                tx_bytes: 0,
+                tx_frames: 0,
+                crc_failures: 0,
+                dropped: 0,
+                queue_overflows: 0,
+                cut_through: 0,
+                timeouts: 0,
+            },
+        }
+    }
+
+    fn streaming(&self) -> bool {
+        self.owner.is_some() || self.close_pending || !self.stream.is_empty()
+    }
+
+    /// Ends the stream with a flag (now, or once the ring has room) and frees the output.
+    fn close(&mut self) {
+        if !self.stream.push(&[FLAG]) {
+            self.close_pending = true;
+        }
+        self.owner = None;
+    }
+
+    /// Queues a whole frame, or counts an overflow.
+    fn enqueue(&mut self, header: &Header, parts: &[&[u8]], len: usize) {
+        if self.queue.free() < len {
+            self.stats.queue_overflows += 1;
+            return;
+        }
+        let queue = &mut self.queue;
+        if encode_with(header, parts, |run| {
+            queue.push(run);
+        })
+        .is_ok()
+        {
+            self.stats.tx_frames += 1;
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+struct Input<const P: usize> {
+    parser: Parser<[u8; P]>,
+    /// Time of the last byte, microseconds.
+    last_us: u64,
+    /// The current frame's receiver is in and `plan` is made.
+    decided: bool,
+    /// Where the current frame goes in all.
+    plan: Decision,
+    /// The outputs the current frame is streamed to.
+    streams: Ports,
+    /// Raw bytes of the current frame before the decision: at most an escaped receiver.
+    prefix: [u8; 2],
+    prefix_len: usize,
+    timeouts: u64,
+}
+
+impl<const P: usize> Input<P> {
+    fn new() -> Self {
+        Input {
+            parser: Parser::new([0; P]),
+            last_us: 0,
+            decided: false,
+            plan: Decision {
+                local: false,
+                forward: Ports::NONE,
+            },
+            streams: Ports::NONE,
+            prefix: [0; 2],
+            prefix_len: 0,
+            timeouts: 0,
+        }
+    }
+
+    fn reset_frame(&mut self) {
+        self.decided = false;
+        self.streams = Ports::NONE;
+        self.prefix_len = 0;
+    }
+}
+
+/// A bridge with `N` interfaces, `P` bytes of parser storage per interface
+/// ([`storage_len`](super::storage_len) of the largest payload), two `Q`-byte queues per
+/// interface (store & forward, cut-through) and a routing table of `A` addresses.
+#[derive(Debug, Clone)]
+pub struct Bridge<const N: usize, const P: usize, const Q: usize, const A: usize = 256> {
+    router: Router<N, A>,
+    inputs: [Input<P>; N],
+    outputs: [Output<Q>; N],
+    cut_through: [Ports; N],
+    timeout_us: u64,
+    counters: TxCounters<A>,
+}
+
+impl<const N: usize, const P: usize, const Q: usize, const A: usize> Default
+    for Bridge<N, P, Q, A>
+{
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Queues a frame on every output in `ports`.
+fn enqueue<const Q: usize>(
+    outputs: &mut [Output<Q>],
+    header: &Header,
+    parts: &[&[u8]],
+    ports: Ports,
+) {
+    if ports.is_empty() {
+        return;
+    }
+    let len = encoded_len(header, parts);
+    for o in ports.iter() {
+        if let Some(out) = outputs.get_mut(o) {
+            out.enqueue(header, parts, len);
+        }
+    }
+}
+
+impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P, Q, A> {
+    /// All interfaces store & forward, every route unknown, a 1 ms byte timeout.
+    pub fn new() -> Self {
+        Bridge {
+            router: Router::new(),
+            inputs: core::array::from_fn(|_| Input::new()),
+            outputs: core::array::from_fn(|_| Output::new()),
+            cut_through: [Ports::NONE; N],
+            timeout_us: 1000,
+            counters: TxCounters::new(),
+        }
+    }
+
+    /// The routing state.
+    #[inline]
+    pub fn router(&self) -> &Router<N, A> {
+        &self.router
+    }
+
+    /// The routing state, to set own ids, mirrors, pinned and seeded routes.
+    #[inline]
+    pub fn router_mut(&mut self) -> &mut Router<N, A> {
+        &mut self.router
+    }
+
+    /// Chooses how frames arriving on `from` are forwarded to `to`.
+    pub fn set_mode(&mut self, from: usize, to: usize, mode: Mode) {
+        if let Some(set) = self.cut_through.get_mut(from) {
+            *set = match mode {
+                Mode::CutThrough => set.with(Ports::one(to)),
+                Mode::StoreForward => set.without(to),
+            };
+        }
+    }
+
+    /// The forwarding mode from `from` to `to`.
+    pub fn mode(&self, from: usize, to: usize) -> Mode {
+        match self.cut_through.get(from) {
+            Some(set) if set.contains(to) => Mode::CutThrough,
+            _ => Mode::StoreForward,
+        }
+    }
+
+    /// How long a cut-through frame may stall between two bytes before it is cut off.
+    pub fn set_byte_timeout_us(&mut self, us: u64) {
+        self.timeout_us = us;
+    }
+
+    /// Counters of interface `i`.
+    pub fn stats(&self, i: usize) -> IfaceStats {
+        let (Some(input), Some(output)) = (self.inputs.get(i), self.outputs.get(i)) else {
+            return IfaceStats::default();
+        };
+        let parsed = input.parser.stats();
+        IfaceStats {
+            rx_bytes: parsed.bytes,
+            rx_frames: parsed.frames,
+            crc_failures: parsed.crc_failures,
+            dropped: parsed.dropped(),
+            timeouts: input.timeouts,
+            ..output.stats
+        }
+    }
+
+    /// Bytes waiting to be sent on interface `i`.
+    pub fn pending(&self, i: usize) -> usize {
+        self.outputs.get(i).map_or(0, |o| {
+            o.queue.len + o.stream.len + usize::from(o.close_pending)
+        })
+    }
+
+    /// Forgets the routes through interface `i` and drops its partial input, e.g. when its link
+    /// went down.
+    pub fn link_down(&mut self, i: usize) {
+        self.router.invalidate(i);
+        self.cut_off(i);
+    }
+
+    /// Sends a frame of this node's own from `sender` to `receiver`, taking the receiver's next
+    /// counter, on the interfaces the routing table names. Returns those interfaces; an
+    /// interface whose queue is full counts an overflow.
+    pub fn send(
+        &mut self,
+        receiver: u8,
+        sender: u8,
+        parts: &[&[u8]],
+    ) -> Result<Ports, EncodeError> {
+        let len: usize = parts.iter().map(|p| p.len()).sum();
+        let length = u8::try_from(len).map_err(|_| EncodeError::PayloadTooLong { len })?;
+        let header = self.counters.header(receiver, sender, length);
+        let ports = self.router.decide(usize::MAX, receiver).forward;
+        enqueue(&mut self.outputs, &header, parts, ports);
+        Ok(ports)
+    }
+
+    /// Pulls up to `out.len()` bytes to send on interface `i`; returns how many.
+    pub fn transmit(&mut self, i: usize, out: &mut [u8]) -> usize {
+        let Some(output) = self.outputs.get_mut(i) else {
+            return 0;
+        };
+        let mut n = 0;
+        if output.streaming() {
+            n = output.stream.pop(out);
+            if output.close_pending && output.stream.is_empty() {
+                if let Some(slot) = out.get_mut(n) {
+                    *slot = FLAG;
+                    n += 1;
+                    output.close_pending = false;
+                }
+            }
+        }
+        if !output.streaming() {
+            n += output.queue.pop(out.get_mut(n..).unwrap_or_default());
+        }
+        output.stats.tx_bytes += n as u64;
+        n
+    }
+
+    /// Cuts off cut-through frames that stalled longer than the byte timeout.
+    pub fn poll(&mut self, now_us: u64) {
+        for i in 0..N {
+            let stalled = self.inputs.get(i).is_some_and(|input| {
+                !input.streams.is_empty() && now_us.saturating_sub(input.last_us) > self.timeout_us
+            });
+            if stalled {
+                if let Some(input) = self.inputs.get_mut(i) {
+                    input.timeouts += 1;
+                }
+                self.cut_off(i);
+            }
+        }
+    }
+
+    /// Drops input `i`'s partial frame and closes its streams.
+    fn cut_off(&mut self, i: usize) {
+        let Some(input) = self.inputs.get_mut(i) else {
+            return;
+        };
+        for o in input.streams.iter() {
+            if let Some(out) = self.outputs.get_mut(o) {
+                out.close();
+            }
+        }
+        input.parser.abort();
+        input.reset_frame();
+    }
+
+    /// Feeds bytes received on interface `i` at time `now_us`; frames for this node are handed
+    /// to `on_local`.
+    pub fn receive(
+        &mut self,
+        i: usize,
+        bytes: &[u8],
+        now_us: u64,
+        mut on_local: impl FnMut(Frame<'_>),
+    ) {
+        let cut_through = self.cut_through.get(i).copied().unwrap_or_default();
+        let Bridge {
+            router,
+            inputs,
+            outputs,
+            ..
+        } = self;
+        let Some(input) = inputs.get_mut(i) else {
+            return;
+        };
+        input.last_us = now_us;
+        if cut_through.is_empty() {
+            // Store & forward only: whole slices through the parser.
+            let mut rest = bytes;
+            while let Feed::Frame { frame, remaining } = input.parser.feed(rest) {
+                let header = frame.header();
+                let decision = router.route(i, &header);
+                if decision.local {
+                    on_local(frame);
+                }
+                enqueue(outputs, &header, &[frame.payload()], decision.forward);
+                rest = remaining;
+            }
+            return;
+        }
+        for &b in bytes {
+            receive_byte(router, input, outputs, i, b, cut_through, &mut on_local);
+        }
+    }
+}
+
+/// One byte into an input with cut-through outputs.
+fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
+    router: &mut Router<N, A>,
+    input: &mut Input<P>,
+    outputs: &mut [Output<Q>; N],
+    i: usize,
+    b: u8,
+    cut_through: Ports,
+    on_local: &mut impl FnMut(Frame<'_>),
+) {
+    let streams = input.streams;
+    let stream = |outputs: &mut [Output<Q>; N], bytes: &[u8], close: bool| {
+        for o in streams.iter() {
+            if let Some(out) = outputs.get_mut(o) {
+                if !out.stream.push(bytes) {
+                    out.stats.queue_overflows += 1;
+                    out.close();
+                } else if close {
+                    out.close();
+                }
+            }
+        }
+    };
+    if b == FLAG {
+        stream(outputs, &[], true);
+        input.reset_frame();
+        let _ = input.parser.feed(&[FLAG]);
+        return;
+    }
+    let complete = match input.parser.feed(&[b]) {
+        Feed::Frame { frame, .. } => {
+            let header = frame.header();
+            let plan = if input.decided {
+                input.plan
+            } else {
+                router.decide(i, header.receiver)
+            };
+            stream(outputs, &[b], true);
+            if !plan.local {
+                router.learn(i, header.sender);
+            }
+            if plan.local {
+                on_local(frame);
+            }
+            enqueue(
+                outputs,
+                &header,
+                &[frame.payload()],
+                plan.forward.without_all(streams),
+            );
+            true
+        }
+        Feed::Consumed => false,
+    };
+    if complete {
+        input.reset_frame();
+        return;
+    }
+    if !input.parser.in_frame() {
+        // Dropped (FCS, escape, oversize): what was streamed passes, cut off.
+        stream(outputs, &[b], true);
+        input.reset_frame();
+    } else if input.decided {
+        stream(outputs, &[b], false);
+        for o in streams.iter() {
+            if outputs.get(o).is_some_and(|out| out.owner != Some(i)) {
+                input.streams = input.streams.without(o);
+            }
+        }
+    } else {
+        if let Some(slot) = input.prefix.get_mut(input.prefix_len) {
+            *slot = b;
+            input.prefix_len += 1;
+        }
+        let Some(receiver) = input.parser.pending_receiver() else {
+            return;
+        };
+        input.decided = true;
+        input.plan = router.decide(i, receiver);
+        let prefix = input.prefix.get(..input.prefix_len).unwrap_or_default();
+        for o in input
+            .plan
+            .forward
+            .iter()
+            .filter(|&o| cut_through.contains(o))
+        {
+            let Some(out) = outputs.get_mut(o) else {
+                continue;
+            };
+            if out.streaming() || !out.queue.is_empty() {
+                continue; // busy: this output gets the frame store & forward
+            }
+            if out.stream.push(&[FLAG]) && out.stream.push(prefix) {
+                out.owner = Some(i);
+                out.stats.tx_frames += 1;
+                out.stats.cut_through += 1;
+                input.streams = input.streams.with(Ports::one(o));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ndlcom::{encode, storage_len, MAX_FRAME_LEN};
+    use std::vec::Vec;
+
+    type B = Bridge<3, { storage_len(255) }, 600>;
+
+    fn frame(r: u8, s: u8, c: u8, payload: &[u8]) -> Vec<u8> {
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = encode(
+            &Header::new(r, s, c, payload.len() as u8),
+            payload,
+            &mut buf,
+        )
+        .unwrap();
+        buf[..n].to_vec()
+    }
+
+    fn drain(b: &mut B, i: usize) -> Vec<u8> {
+        let mut out = [0u8; 2048];
+        let n = b.transmit(i, &mut out);
+        out[..n].to_vec()
+    }
+
+    #[test]
+    fn store_and_forward_floods_then_learns() {
+        let mut b = B::new();
+        b.router_mut().add_own_id(1);
+        let f = frame(7, 9, 0, &[1, 2, 3]);
+        b.receive(0, &f, 0, |_| panic!("not for us"));
+        assert_eq!(drain(&mut b, 1), f);
+        assert_eq!(drain(&mut b, 2), f);
+        assert!(drain(&mut b, 0).is_empty());
+        let back = frame(9, 7, 0, &[]);
+        b.receive(2, &back, 0, |_| {});
+        assert_eq!(drain(&mut b, 0), back);
+        assert!(drain(&mut b, 1).is_empty());
+        assert_eq!(b.stats(0).rx_frames, 1);
+        assert_eq!(b.stats(1).tx_frames, 1);
+        assert_eq!(b.stats(0).tx_bytes, back.len() as u64);
+    }
+
+    #[test]
+    fn local_frames_and_own_sends() {
+        let mut b = B::new();
+        b.router_mut().add_own_id(1);
+        let mut got = Vec::new();
+        b.receive(2, &frame(1, 5, 3, &[42]), 0, |f| {
+            got.push((f.header(), f.payload().to_vec()))
+        });
+        b.receive(2, &frame(0xff, 5, 4, &[43]), 0, |f| {
+            got.push((f.header(), f.payload().to_vec()))
+        });
+        assert_eq!(got.len(), 2);
+        assert_eq!(got[0].1, [42]);
+        // The broadcast went on, the frame for us did not.
+        assert_eq!(drain(&mut b, 0), frame(0xff, 5, 4, &[43]));
+        // Nothing learned from frames for us; an own send to 5 floods.
+        assert_eq!(b.send(5, 1, &[&[9]]), Ok(Ports(0b111)));
+        assert_eq!(drain(&mut b, 2), frame(5, 1, 0, &[9]));
+        b.send(5, 1, &[&[9]]).unwrap();
+        assert_eq!(drain(&mut b, 2), frame(5, 1, 1, &[9]));
+    }
+
+    #[test]
+    fn full_queue_counts_and_never_sends_half() {
+        let mut b = Bridge::<2, { storage_len(255) }, 300>::new();
+        let big = frame(7, 9, 0, &[0x7e; 200]); // 411 bytes encoded
+        b.receive(0, &big, 0, |_| {});
+        let small = frame(7, 9, 1, &[1; 100]);
+        b.receive(0, &small, 0, |_| {});
+        b.receive(0, &small, 0, |_| {});
+        let s = b.stats(1);
+        assert_eq!((s.tx_frames, s.queue_overflows), (2, 1));
+        let mut out = [0u8; 1024];
+        let n = b.transmit(1, &mut out);
+        assert_eq!(&out[..n], [small.clone(), small].concat());
+    }
+
+    #[test]
+    fn cut_through_streams_and_learns_after_fcs() {
+        let mut b = B::new();
+        b.set_mode(0, 1, Mode::CutThrough);
+        b.router_mut().seed(7, 1);
+        let f = frame(7, 9, 0, &[0x7d, 1, 2, 3]);
+        b.receive(0, &f[..3], 0, |_| {});
+        assert_eq!(drain(&mut b, 1), f[..3]);
+        assert_eq!(b.router().lookup(9), None, "no learning before the FCS");
+        b.receive(0, &f[3..f.len() - 1], 10, |_| {});
+        assert_eq!(b.router().lookup(9), Some(0));
+        // The frame is closed as soon as it is complete; the incoming closing flag adds nothing.
+        b.receive(0, &f[f.len() - 1..], 10, |_| {});
+        assert_eq!(drain(&mut b, 1), f[3..]);
+        assert_eq!(b.stats(1).cut_through, 1);
+    }
+
+    #[test]
+    fn cut_through_passes_broken_frames_and_learns_nothing() {
+        let mut b = B::new();
+        b.set_mode(0, 1, Mode::CutThrough);
+        b.set_mode(0, 2, Mode::CutThrough);
+        let mut f = frame(7, 9, 0, &[1, 2, 3]);
+        f[6] ^= 1;
+        b.receive(0, &f, 0, |_| {});
+        assert_eq!(drain(&mut b, 1), f);
+        assert_eq!(drain(&mut b, 2), f);
+        assert_eq!(b.router().lookup(9), None);
+        assert_eq!(b.stats(0).crc_failures, 1);
+    }
+
+    #[test]
+    fn stalled_cut_through_is_cut_off() {
+        let mut b = B::new();
+        b.set_mode(0, 1, Mode::CutThrough);
+        b.set_byte_timeout_us(100);
+        b.router_mut().seed(7, 1);
+        let f = frame(7, 9, 0, &[1, 2, 3, 4]);
+        b.receive(0, &f[..5], 0, |_| {});
+        // Meanwhile a frame from interface 2 must wait: it is queued store & forward.
+        let g = frame(7, 8, 0, &[5]);
+        b.receive(2, &g, 50, |_| {});
+        b.poll(100);
+        assert_eq!(drain(&mut b, 1), f[..5]);
+        b.poll(101);
+        assert_eq!(b.stats(0).timeouts, 1);
+        assert_eq!(drain(&mut b, 1), [&[FLAG][..], &g].concat());
+        // The rest of the stalled frame is not forwarded.
+        b.receive(0, &f[5..], 300, |_| {});
+        assert!(drain(&mut b, 1).is_empty());
+    }
+
+    #[test]
+    fn busy_output_falls_back_to_store_and_forward() {
+        let mut b = B::new();
+        b.set_mode(0, 1, Mode::CutThrough);
+        b.set_mode(2, 1, Mode::CutThrough);
+        b.router_mut().seed(7, 1);
+        let f = frame(7, 9, 0, &[1, 2, 3]);
+        let g = frame(7, 8, 0, &[4, 5]);
+        // Interleaved arrival: f streams, g must wait and arrive whole after it.
+        for k in 0..f.len().max(g.len()) {
+            if let Some(x) = f.get(k) {
+                b.receive(0, &[*x], k as u64, |_| {});
+            }
+            if let Some(x) = g.get(k) {
+                b.receive(2, &[*x], k as u64, |_| {});
+            }
+        }
+        let sent = drain(&mut b, 1);
+        assert_eq!(sent, [f.clone(), g.clone()].concat());
+        assert_eq!(b.stats(1).cut_through, 1);
+    }
+}

@@ -1,0 +1,365 @@
+//! A push-style NDLCom stream parser over caller- or const-sized storage.
+//!
+//! [`Parser::feed`] takes whatever bytes arrived and returns either "all consumed, no frame
+//! yet" or one frame plus the input it has not looked at yet, the shape of postcard's
+//! `CobsAccumulator`. A frame is a view into the parser's storage (the unescaped header,
+//! payload and FCS): nothing is copied out.
+//!
+//! Rules, from the protocol and from the reference decoder's known weak spots:
+//!
+//! - every 0x7E restarts the search; a frame cut short by one is counted as
+//!   [`Stats::truncated`];
+//! - no leading flag is needed, neither before the first frame nor between frames, because the
+//!   length field says where a frame ends;
+//! - a payload longer than the configured maximum is skipped whole, by its length field, and
+//!   counted as [`Stats::oversize`]: its bytes are never read as a header;
+//! - 0x7D must be followed by 0x5D or 0x5E; anything else drops the frame
+//!   ([`Stats::bad_escape`]) up to the next flag;
+//! - a frame whose FCS does not check is counted in [`Stats::crc_failures`].
+//!
+//! ```
+//! use ferrolink_runtime::ndlcom::{parser::{Feed, Parser}, storage_len};
+//!
+//! let mut parser = Parser::new([0u8; storage_len(16)]);
+//! let frame = [126, 1, 0, 0, 0, 154, 31, 126];
+//! // Line noise, then the frame in two pieces.
+//! assert!(matches!(parser.feed(&[0x55, 0x7e, 1]), Feed::Consumed));
+//! assert!(matches!(parser.feed(&frame[..4]), Feed::Consumed));
+//! let Feed::Frame { frame: got, remaining } = parser.feed(&frame[4..]) else { panic!() };
+//! assert_eq!(got.header().receiver, 1);
+//! assert_eq!(remaining, &[126]);
+//! assert_eq!(parser.stats().truncated, 2); // the noise, and the frame the first `1` began
+//! ```
+
+use super::encode::is_special;
+use super::{Header, ESCAPE, FCS_LEN, FLAG, MAX_PAYLOAD_LEN};
+use crate::crc::mcrf4xx;
+
+/// What a [`Parser`] accepted and dropped so far.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct Stats {
+    /// Frames handed out.
+    pub frames: u64,
+    /// Bytes fed.
+    pub bytes: u64,
+    /// Frames whose FCS did not check.
+    pub crc_failures: u64,
+    /// Frames cut short by a flag (or by the end of input, see [`Parser::finish`]).
+    pub truncated: u64,
+    /// Frames longer than the configured maximum payload.
+    pub oversize: u64,
+    /// Frames dropped for an escape byte followed by something other than 0x5D or 0x5E.
+    pub bad_escape: u64,
+}
+
+impl Stats {
+    /// Frames dropped for any reason but a failed FCS.
+    #[inline]
+    pub fn dropped(&self) -> u64 {
+        self.truncated + self.oversize + self.bad_escape
+    }
+}
+
+/// The outcome of [`Parser::feed`].
+#[derive(Debug)]
+#[must_use = "a frame and the rest of the input may be in the result"]
+pub enum Feed<'p, 'a> {
+    /// All input was consumed; no complete frame yet.
+    Consumed,
+    /// A frame, and the input after it, which the parser has not looked at yet.
+    Frame {
+        /// The frame, borrowed from the parser until the next `feed`.
+        frame: Frame<'p>,
+        /// The input the parser has not consumed; feed it next.
+        remaining: &'a [u8],
+    },
+}
+
+/// A received frame whose FCS checked: a view of the unescaped header, payload and FCS.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Frame<'p> {
+    bytes: &'p [u8],
+}
+
+impl<'p> Frame<'p> {
+    /// Wraps unescaped `header | payload | fcs` bytes after checking their length and FCS.
+    pub fn new_checked(bytes: &'p [u8]) -> Option<Self> {
+        let header = Header::parse(bytes)?;
+        let len = Header::LEN + usize::from(header.length) + FCS_LEN;
+        let bytes = bytes.get(..len)?;
+        (mcrf4xx(bytes) == 0).then_some(Frame { bytes })
+    }
+
+    /// The header.
+    #[inline]
+    pub fn header(&self) -> Header {
+        Header::parse(self.bytes).unwrap_or_default()
+    }
+
+    /// The payload.
+    #[inline]
+    pub fn payload(&self) -> &'p [u8] {
+        let end = self.bytes.len().saturating_sub(FCS_LEN);
+        self.bytes.get(Header::LEN..end).unwrap_or_default()
+    }
+
+    /// The FCS as received.
+    #[inline]
+    pub fn fcs(&self) -> u16 {
+        match self.bytes {
+            [.., lo, hi] => u16::from_le_bytes([*lo, *hi]),
+            _ => 0,
+        }
+    }
+
+    /// The unescaped `header | payload | fcs` bytes.
+    #[inline]
+    pub fn as_bytes(&self) -> &'p [u8] {
+        self.bytes
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum State {
+    /// Collecting a frame into the storage.
+    Collect,
+    /// Collecting; the last byte was 0x7D.
+    Escaped,
+    /// Skipping an oversize frame: this many unescaped bytes are left.
+    Skip { left: usize, escaped: bool },
+    /// Dropping bytes up to the next flag.
+    Discard,
+}
+
+/// The push parser. `S` is its storage: `[u8; N]` for a const size, or `&mut [u8]`.
+///
+/// The storage holds one unescaped frame, so `storage_len(max_payload)` bytes
+/// ([`storage_len`](super::storage_len)) accept payloads up to `max_payload`.
+#[derive(Debug, Clone)]
+pub struct Parser<S> {
+    buf: S,
+    /// Unescaped bytes of the current frame in `buf`.
+    len: usize,
+    /// Unescaped bytes the current frame needs in all (4 until the header is in).
+    need: usize,
+    max_payload: usize,
+    state: State,
+    stats: Stats,
+}
+
+impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
+    /// A parser accepting the largest payload `storage` can hold (at most 255 bytes).
+    pub fn new(storage: S) -> Self {
+        let max_payload = storage
+            .as_ref()
+            .len()
+            .saturating_sub(Header::LEN + FCS_LEN)
+            .min(MAX_PAYLOAD_LEN);
+        Parser {
+            buf: storage,
+            len: 0,
+            need: Header::LEN,
+            max_payload,
+            state: State::Collect,
+            stats: Stats::default(),
+        }
+    }
+
+    /// Lowers the largest accepted payload (it never exceeds what the storage holds).
+    pub fn set_max_payload(&mut self, max: usize) {
+        let cap = self
+            .buf
+            .as_ref()
+            .len()
+            .saturating_sub(Header::LEN + FCS_LEN);
+        self.max_payload = max.min(cap).min(MAX_PAYLOAD_LEN);
+    }
+
+    /// The largest accepted payload.
+    #[inline]
+    pub fn max_payload(&self) -> usize {
+        self.max_payload
+    }
+
+    /// Counters since creation (or the last [`take_stats`](Self::take_stats)).
+    #[inline]
+    pub fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    /// Returns the counters and zeroes them.
+    pub fn take_stats(&mut self) -> Stats {
+        core::mem::take(&mut self.stats)
+    }
+
+    /// Whether the parser is inside a frame (it has bytes of one it has neither handed out
+    /// nor dropped yet).
+    #[inline]
+    pub fn in_frame(&self) -> bool {
+        match self.state {
+            State::Collect => self.len > 0,
+            State::Escaped => true,
+            State::Skip { .. } | State::Discard => false,
+        }
+    }
+
+    /// The receiver of the frame being received, once its first byte is in.
+    #[inline]
+    pub fn pending_receiver(&self) -> Option<u8> {
+        if self.len > 0 && matches!(self.state, State::Collect | State::Escaped) {
+            self.buf.as_ref().first().copied()
+        } else {
+            None
+        }
+    }
+
+    /// Ends the input: a frame in progress is dropped and counted as truncated. Call this at
+    /// the end of a capture, or after a link's byte-level timeout.
+    pub fn finish(&mut self) {
+        if self.in_frame() {
+            self.stats.truncated += 1;
+        }
+        self.restart();
+    }
+
+    /// Drops the frame in progress (counted as truncated) and every byte up to the next flag:
+    /// for a link that stalled or went down mid-frame, whose next bytes are not a frame start.
+    pub fn abort(&mut self) {
+        self.finish();
+        self.state = State::Discard;
+    }
+
+    fn restart(&mut self) {
+        self.len = 0;
+        self.need = Header::LEN;
+        self.state = State::Collect;
+    }
+
+    /// Feeds bytes and returns the first complete frame, if any, with the input after it.
+    ///
+    /// Call `feed` again with `remaining` until it returns [`Feed::Consumed`]. The frame stays
+    /// valid until the next call.
+    pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'p, 'a> {
+        while let Some((&b, rest)) = input.split_first() {
+            if b == FLAG {
+                self.stats.bytes += 1;
+                self.finish();
+                input = rest;
+                continue;
+            }
+            match self.state {
+                State::Collect if b != ESCAPE => {
+                    // Copy the run of plain bytes up to what the frame needs next.
+                    let want = self.need - self.len;
+                    let run = input.get(..want.min(input.len())).unwrap_or_default();
+                    let run_len = run.iter().position(|&b| is_special(b)).unwrap_or(run.len());
+                    if let Some(dst) = self.buf.as_mut().get_mut(self.len..self.len + run_len) {
+                        dst.copy_from_slice(run.get(..run_len).unwrap_or_default());
+                    }
+                    self.stats.bytes += run_len as u64;
+                    self.len += run_len;
+                    input = input.get(run_len..).unwrap_or_default();
+                    if self.len == self.need && self.advance() {
+                        return self.hand_out(input);
+                    }
+                }
+                State::Collect => {
+                    self.stats.bytes += 1;
+                    self.state = State::Escaped;
+                    input = rest;
+                }
+                State::Escaped => {
+                    self.stats.bytes += 1;
+                    input = rest;
+                    if b == 0x5d || b == 0x5e {
+                        self.state = State::Collect;
+                        if let Some(slot) = self.buf.as_mut().get_mut(self.len) {
+                            *slot = b ^ 0x20;
+                        }
+                        self.len += 1;
+                        if self.len == self.need && self.advance() {
+                            return self.hand_out(input);
+                        }
+                    } else {
+                        self.stats.bad_escape += 1;
+                        self.len = 0;
+                        self.state = State::Discard;
+                    }
+                }
+                State::Skip { left, escaped } => {
+                    self.stats.bytes += 1;
+                    input = rest;
+                    let (left, escaped) = match (escaped, b == ESCAPE) {
+                        (false, true) => (left, true),
+                        _ => (left - 1, false),
+                    };
+                    self.state = if left == 0 {
+                        State::Collect
+                    } else {
+                        State::Skip { left, escaped }
+                    };
+                }
+                State::Discard => {
+                    // Up to the next flag, which the top of the loop handles.
+                    let skip = input.iter().position(|&b| b == FLAG).unwrap_or(input.len());
+                    self.stats.bytes += skip as u64;
+                    input = input.get(skip..).unwrap_or_default();
+                }
+            }
+        }
+        Feed::Consumed
+    }
+
+    /// Called when `len == need`: reads the header or checks a complete frame. Returns true if
+    /// a valid frame is complete.
+    fn advance(&mut self) -> bool {
+        if self.need == Header::LEN {
+            let length = usize::from(self.buf.as_ref().get(3).copied().unwrap_or(0));
+            if length > self.max_payload {
+                self.stats.oversize += 1;
+                self.len = 0;
+                self.need = Header::LEN;
+                self.state = State::Skip {
+                    left: length + FCS_LEN,
+                    escaped: false,
+                };
+                return false;
+            }
+            self.need = Header::LEN + length + FCS_LEN;
+            return false;
+        }
+        let ok = self
+            .buf
+            .as_ref()
+            .get(..self.need)
+            .is_some_and(|frame| mcrf4xx(frame) == 0);
+        if ok {
+            self.stats.frames += 1;
+        } else {
+            self.stats.crc_failures += 1;
+            self.restart();
+        }
+        ok
+    }
+
+    fn hand_out<'p, 'a: 'p>(&'p mut self, remaining: &'a [u8]) -> Feed<'p, 'a> {
+        let len = self.need;
+        self.restart();
+        let bytes = self.buf.as_ref().get(..len).unwrap_or_default();
+        Feed::Frame {
+            frame: Frame { bytes },
+            remaining,
+        }
+    }
+
+    /// Feeds bytes and calls `on_frame` for every frame they complete; returns how many.
+    pub fn feed_all(&mut self, mut input: &[u8], mut on_frame: impl FnMut(Frame<'_>)) -> usize {
+        let mut n = 0;
+        while let Feed::Frame { frame, remaining } = self.feed(input) {
+            on_frame(frame);
+            input = remaining;
+            n += 1;
+        }
+        n
+    }
+}
