@@ -11,6 +11,60 @@ pub const MAX_PAYLOAD: usize = 255;
 /// The most fields a message may have.
 pub const MAX_FIELDS: usize = 64;
 
+/// A link protocol that carries dictionary messages and limits them further.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Carrier {
+    /// NDLCom: the first payload byte is the message id, the wire layout follows, 255 bytes
+    /// in all.
+    Ndlcom,
+}
+
+impl std::str::FromStr for Carrier {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "ndlcom" => Ok(Carrier::Ndlcom),
+            _ => Err(format!("unknown carrier `{s}` (known: ndlcom)")),
+        }
+    }
+}
+
+/// Reports every message `carrier` cannot carry.
+pub fn check_carrier(ir: &Ir, carrier: Carrier, diags: &mut Diagnostics) {
+    match carrier {
+        Carrier::Ndlcom => {
+            for msg in ir.modules.iter().flat_map(|m| &m.messages) {
+                let Some(span) = msg.span.clone() else {
+                    continue;
+                };
+                if msg.id > 255 {
+                    diags.report(
+                        Code::CarrierIdTooLarge,
+                        msg.id_span.clone().unwrap_or(span),
+                        format!(
+                            "message `{}` has id {}, which NDLCom cannot carry",
+                            msg.name.wire, msg.id
+                        ),
+                        "id over 255",
+                    );
+                } else if msg.max_len == MAX_PAYLOAD {
+                    diags.report(
+                        Code::CarrierPayloadTooLong,
+                        span,
+                        format!(
+                            "message `{}` is {} bytes long; with its id byte it exceeds NDLCom's 255-byte payload",
+                            msg.name.wire, msg.max_len
+                        ),
+                        "too long for NDLCom",
+                    );
+                }
+            }
+        }
+    }
+}
+
 /// Reports every problem in `ir`.
 pub fn check(ir: &Ir, diags: &mut Diagnostics) {
     let enum_names: HashSet<&str> = ir.enums.iter().map(|e| e.name.wire.as_str()).collect();

@@ -9,7 +9,7 @@ use crate::backend::rust::{self, SerdeMode};
 use crate::diag::Failed;
 use crate::format;
 use crate::write::{self, GeneratedFile};
-use crate::{Checked, Diagnostic};
+use crate::{Carrier, Checked, Diagnostic};
 
 /// Configures and runs the generator.
 ///
@@ -26,6 +26,7 @@ pub struct Config {
     out_dir: Option<PathBuf>,
     file_name: Option<String>,
     serde: SerdeMode,
+    carriers: Vec<Carrier>,
 }
 
 /// The result of [`Config::generate`]: file contents, nothing written yet.
@@ -101,8 +102,23 @@ impl Config {
         self
     }
 
+    /// Also checks that every message fits `carrier` (e.g. NDLCom's one-byte message id).
+    ///
+    /// ```
+    /// use ferrolink_codegen::{Carrier, Config};
+    ///
+    /// let mut config = Config::new();
+    /// config.input("dialect.xml").carrier(Carrier::Ndlcom);
+    /// ```
+    pub fn carrier(&mut self, carrier: Carrier) -> &mut Self {
+        if !self.carriers.contains(&carrier) {
+            self.carriers.push(carrier);
+        }
+        self
+    }
+
     fn run(&self) -> Result<Checked, Failed> {
-        crate::load(&self.inputs)
+        crate::load_for(&self.inputs, &self.carriers)
     }
 
     fn inputs_label(&self) -> String {

@@ -172,6 +172,10 @@ codes! {
     TooManyFields = "E0309", Error, "a message has at most 64 fields";
     /// Two names that become the same Rust name.
     NameCollision = "E0310", Error, "rename one of them; names are compared after case conversion";
+    /// A message id that does not fit the carrier's type field (NDLCom: one byte).
+    CarrierIdTooLarge = "E0311", Error, "NDLCom names a payload's message in one byte: give the message an id below 256, or do not send it over NDLCom";
+    /// A message that, with the carrier's own bytes, exceeds the carrier's payload.
+    CarrierPayloadTooLong = "E0312", Error, "NDLCom payloads are at most 255 bytes including the id byte: shorten the message to 254 bytes";
 }
 
 /// One problem.

@@ -29,9 +29,12 @@ pub mod frontend;
 pub mod ident;
 pub mod ir;
 pub mod lower;
+#[cfg(feature = "cli")]
+pub mod traffic;
 pub mod write;
 
 pub use backend::rust::SerdeMode;
+pub use check::Carrier;
 pub use config::{Config, Generated};
 pub use diag::{Diagnostic, Failed};
 
@@ -51,11 +54,19 @@ pub struct Checked {
 
 /// Parses, lowers and checks `inputs`. Every problem is reported in one go.
 pub fn load(inputs: &[PathBuf]) -> Result<Checked, Failed> {
+    load_for(inputs, &[])
+}
+
+/// Like [`load`], and also checks that every message fits each of `carriers`.
+pub fn load_for(inputs: &[PathBuf], carriers: &[check::Carrier]) -> Result<Checked, Failed> {
     let mut diags = diag::Diagnostics::default();
     let loaded = frontend::mavlink::load(inputs, &mut diags);
     let read = loaded.paths().map(PathBuf::from).collect();
     let ir = lower::lower(loaded);
     check::check(&ir, &mut diags);
+    for &carrier in carriers {
+        check::check_carrier(&ir, carrier, &mut diags);
+    }
     if diags.has_errors() {
         return Err(Failed(diags.into_vec()));
     }

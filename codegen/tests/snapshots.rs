@@ -37,8 +37,15 @@ fn generated_code_and_ir() {
     });
 }
 
+/// Fixtures named `*_ndlcom_*` are also checked against the NDLCom carrier.
 fn diagnostics_for(path: &Path) -> String {
-    match ferrolink_codegen::load(&[path.to_path_buf()]) {
+    let name = path.file_name().unwrap_or_default().to_string_lossy();
+    let carriers: &[ferrolink_codegen::Carrier] = if name.contains("_ndlcom_") {
+        &[ferrolink_codegen::Carrier::Ndlcom]
+    } else {
+        &[]
+    };
+    match ferrolink_codegen::load_for(&[path.to_path_buf()], carriers) {
         Ok(checked) => checked.warnings.iter().map(|d| format!("{d}\n")).collect(),
         Err(failed) => failed.to_string(),
     }

@@ -1,4 +1,7 @@
-//! `ferrolink`: generate bindings, check dictionaries, dump the IR.
+//! `ferrolink`: generate bindings, check dictionaries, dump the IR, and work with NDLCom
+//! traffic.
+
+mod ndlcom;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -35,13 +38,22 @@ enum Command {
         /// serde support: always derive.
         #[arg(long)]
         serde_always: bool,
+        /// Also check that every message fits this carrier (`ndlcom`: ids below 256).
+        #[arg(long, value_name = "CARRIER")]
+        carrier: Vec<ferrolink_codegen::Carrier>,
     },
     /// Report every problem in the dictionaries; exit 1 on errors.
     Check {
         /// Dictionary files.
         #[arg(required = true)]
         inputs: Vec<PathBuf>,
+        /// Also check that every message fits this carrier (`ndlcom`: ids below 256).
+        #[arg(long, value_name = "CARRIER")]
+        carrier: Vec<ferrolink_codegen::Carrier>,
     },
+    /// NDLCom frames: encode, decode, bridge, log, export.
+    #[command(subcommand)]
+    Ndlcom(ndlcom::Command),
     /// Print the lowered IR as JSON.
     Ir {
         /// Dictionary files.
@@ -75,6 +87,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             check,
             serde_feature,
             serde_always,
+            carrier,
         } => {
             let mut config = ferrolink_codegen::Config::new();
             config.serde(match (serde_feature, serde_always) {
@@ -84,6 +97,9 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             });
             for i in &inputs {
                 config.input(i);
+            }
+            for c in carrier {
+                config.carrier(c);
             }
             let generated = config.generate_modules()?;
             print_warnings(&generated.warnings);
@@ -105,7 +121,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             );
             Ok(ExitCode::SUCCESS)
         }
-        Command::Check { inputs } => match ferrolink_codegen::load(&inputs) {
+        Command::Check { inputs, carrier } => match ferrolink_codegen::load_for(&inputs, &carrier) {
             Ok(checked) => {
                 print_warnings(&checked.warnings);
                 let messages: usize = checked.ir.modules.iter().map(|m| m.messages.len()).sum();
@@ -122,6 +138,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 Ok(ExitCode::FAILURE)
             }
         },
+        Command::Ndlcom(command) => ndlcom::run(command),
         Command::Ir { inputs } => {
             let checked = ferrolink_codegen::load(&inputs)?;
             print_warnings(&checked.warnings);

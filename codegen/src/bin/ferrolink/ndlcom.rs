@@ -1,0 +1,249 @@
+//! `ferrolink ndlcom ...`: frame encode/decode for checking us against other implementations,
+//! and CSV export of logs.
+
+use std::io::{self, BufRead, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Subcommand;
+use ferrolink_runtime::ndlcom::{self, parser::Parser, Header};
+use serde::{Deserialize, Serialize};
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Encode frames: reads JSON lines `{"receiver":1,"sender":2,"counter":3,"payload":"<hex>"}`
+    /// from stdin and prints each encoded frame as hex.
+    Encode,
+    /// Decode a hex byte stream from stdin (garbage and broken frames allowed): prints one JSON
+    /// line per valid frame, then `{"crc_failures":N,"dropped":M}`.
+    Decode {
+        /// Drop frames with longer payloads.
+        #[arg(long, default_value_t = 255)]
+        max_payload: usize,
+    },
+    /// Export a log written by `ferrolink ndlcom log` (or a bridge's `--log`) to one CSV file
+    /// per message type, decoding payloads with a dictionary.
+    Export {
+        /// The log file.
+        log: PathBuf,
+        /// Dictionary files (MAVLink XML) describing the payloads.
+        #[arg(long = "dict", required = true)]
+        dicts: Vec<PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        csv: PathBuf,
+    },
+}
+
+/// One frame in the JSON form of `encode` and `decode`.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FrameJson {
+    receiver: u8,
+    sender: u8,
+    #[serde(default)]
+    counter: u8,
+    #[serde(default)]
+    payload: String,
+}
+
+/// One line of a log file.
+#[derive(Serialize, Deserialize)]
+pub struct LogLine {
+    /// Microseconds since the Unix epoch.
+    pub t_us: u64,
+    /// The interface the frame arrived on.
+    pub interface: String,
+    /// The frame as on the wire, flags included, in hex.
+    pub frame: String,
+}
+
+pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    match command {
+        Command::Encode => encode(),
+        Command::Decode { max_payload } => decode(max_payload),
+        Command::Export { log, dicts, csv } => export(&log, &dicts, &csv),
+    }
+}
+
+fn encode() -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let stdout = io::stdout();
+    let mut out = io::BufWriter::new(stdout.lock());
+    let mut failed = false;
+    let mut buf = [0u8; ndlcom::MAX_FRAME_LEN];
+    for (n, line) in io::stdin().lock().lines().enumerate() {
+        let line = line?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let frame = serde_json::from_str::<FrameJson>(&line)
+            .map_err(|e| e.to_string())
+            .and_then(|f| {
+                let payload = hex::decode(f.payload.trim())
+                    .map_err(|e| format!("payload is not hex: {e}"))?;
+                let length = u8::try_from(payload.len())
+                    .map_err(|_| format!("payload of {} bytes exceeds 255", payload.len()))?;
+                let header = Header::new(f.receiver, f.sender, f.counter, length);
+                ndlcom::encode(&header, &payload, &mut buf).map_err(|e| e.to_string())
+            });
+        match frame {
+            Ok(len) => writeln!(out, "{}", hex::encode(&buf[..len]))?,
+            Err(e) => {
+                out.flush()?;
+                eprintln!("stdin:{}: {e}", n + 1);
+                failed = true;
+            }
+        }
+    }
+    out.flush()?;
+    Ok(if failed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// Turns hex text into bytes across line breaks; whitespace anywhere is ignored.
+#[derive(Default)]
+struct HexReader {
+    high: Option<u8>,
+}
+
+impl HexReader {
+    fn push(&mut self, text: &str, out: &mut Vec<u8>) -> Result<(), String> {
+        for (i, c) in text.char_indices() {
+            if c.is_whitespace() {
+                continue;
+            }
+            let digit = c
+                .to_digit(16)
+                .ok_or_else(|| format!("{}: `{c}` is not a hex digit", i + 1))?
+                as u8;
+            match self.high.take() {
+                Some(high) => out.push(high << 4 | digit),
+                None => self.high = Some(digit),
+            }
+        }
+        Ok(())
+    }
+}
+
+fn decode(max_payload: usize) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let stdout = io::stdout();
+    let mut out = io::BufWriter::new(stdout.lock());
+    let mut parser = Parser::new([0u8; ndlcom::storage_len(ndlcom::MAX_PAYLOAD_LEN)]);
+    parser.set_max_payload(max_payload);
+    let mut hex_reader = HexReader::default();
+    let mut bytes = Vec::new();
+    let mut result = Ok(());
+    for (n, line) in io::stdin().lock().lines().enumerate() {
+        bytes.clear();
+        if let Err(e) = hex_reader.push(&line?, &mut bytes) {
+            result = Err(format!("stdin:{}:{e}", n + 1));
+            break;
+        }
+        let mut write = Ok(());
+        parser.feed_all(&bytes, |frame| {
+            if write.is_ok() {
+                write = print_frame(&mut out, &frame);
+            }
+        });
+        write?;
+    }
+    parser.finish();
+    let stats = parser.stats();
+    writeln!(
+        out,
+        "{}",
+        serde_json::json!({"crc_failures": stats.crc_failures, "dropped": stats.dropped()})
+    )?;
+    out.flush()?;
+    if hex_reader.high.is_some() && result.is_ok() {
+        result = Err("stdin: odd number of hex digits; the last one was ignored".into());
+    }
+    match result {
+        Ok(()) => Ok(ExitCode::SUCCESS),
+        Err(e) => {
+            eprintln!("{e}");
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+fn print_frame(out: &mut impl Write, frame: &ndlcom::Frame<'_>) -> io::Result<()> {
+    let h = frame.header();
+    let json = FrameJson {
+        receiver: h.receiver,
+        sender: h.sender,
+        counter: h.counter,
+        payload: hex::encode(frame.payload()),
+    };
+    writeln!(out, "{}", serde_json::to_string(&json)?)
+}
+
+fn export(
+    log: &std::path::Path,
+    dicts: &[PathBuf],
+    dir: &std::path::Path,
+) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    use ferrolink_codegen::traffic::{CsvExport, PayloadDecoder, RowMeta};
+
+    let checked = match ferrolink_codegen::load_for(dicts, &[ferrolink_codegen::Carrier::Ndlcom]) {
+        Ok(checked) => checked,
+        Err(failed) => {
+            eprintln!("{failed}");
+            return Ok(ExitCode::FAILURE);
+        }
+    };
+    let decoder = PayloadDecoder::new(&checked.ir);
+    let mut export = CsvExport::new(dir)?;
+    let file = io::BufReader::new(std::fs::File::open(log)?);
+    let mut parser = Parser::new([0u8; ndlcom::storage_len(ndlcom::MAX_PAYLOAD_LEN)]);
+    let (mut frames, mut bad_lines) = (0u64, 0u64);
+    for (n, line) in file.lines().enumerate() {
+        let line = line?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let entry = serde_json::from_str::<LogLine>(&line)
+            .map_err(|e| e.to_string())
+            .and_then(|l| hex::decode(&l.frame).map(|b| (l.t_us, b)).map_err(|e| e.to_string()));
+        let (t_us, bytes) = match entry {
+            Ok(entry) => entry,
+            Err(e) => {
+                eprintln!("{}:{}: {e}", log.display(), n + 1);
+                bad_lines += 1;
+                continue;
+            }
+        };
+        let mut result = Ok(());
+        let got = parser.feed_all(&bytes, |frame| {
+            let h = frame.header();
+            let meta = RowMeta {
+                t_us,
+                sender: h.sender,
+                receiver: h.receiver,
+                counter: h.counter,
+            };
+            if result.is_ok() {
+                result = export.record(&decoder, &meta, frame.payload()).map(|_| ());
+            }
+        });
+        result?;
+        parser.finish();
+        if got == 0 {
+            eprintln!("{}:{}: no valid frame on this line", log.display(), n + 1);
+            bad_lines += 1;
+        }
+        frames += got as u64;
+    }
+    for (path, rows) in export.finish()? {
+        eprintln!("{}: {rows} row(s)", path.display());
+    }
+    eprintln!("{frames} frame(s) exported, {bad_lines} bad line(s)");
+    Ok(if bad_lines == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
