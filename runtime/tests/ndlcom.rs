@@ -7,6 +7,9 @@ use ferrolink_runtime::ndlcom::{
 };
 use proptest::prelude::*;
 
+#[path = "scripts/ndlcom.rs"]
+mod scripts;
+
 /// (receiver, sender, counter, payload, encoded), from the protocol facts.
 fn golden() -> Vec<(Header, Vec<u8>, Vec<u8>)> {
     let rows: [(u8, u8, u8, Vec<u8>, Vec<u8>); 6] = [
@@ -239,6 +242,28 @@ proptest! {
         let n = encode(&h, &p, &mut x).unwrap();
         let m = encode_parts(&h, &[a, b], &mut y).unwrap();
         prop_assert_eq!(&x[..n], &y[..m]);
+    }
+
+    #[test]
+    fn parser_invariants(data in prop::collection::vec(any::<u8>(), 0..700)) {
+        scripts::check_parser(&data);
+    }
+
+    #[test]
+    fn bridge_invariants(data in prop::collection::vec(any::<u8>(), 0..700)) {
+        scripts::check_bridge(&data);
+    }
+
+    #[test]
+    fn parser_invariants_on_frames(frames in prop::collection::vec(arb_frame(), 1..4), seed in any::<u8>()) {
+        // Mostly valid frames, so the re-encoding checks see real frames.
+        let mut data = vec![seed];
+        for (h, p) in &frames {
+            let mut buf = [0u8; MAX_FRAME_LEN];
+            let n = encode(h, p, &mut buf).unwrap();
+            data.extend_from_slice(&buf[..n]);
+        }
+        scripts::check_parser(&data);
     }
 
     #[test]
