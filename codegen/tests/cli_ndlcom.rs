@@ -106,7 +106,12 @@ fn export_a_log_to_csv() {
     let log: String = frames
         .lines()
         .enumerate()
-        .map(|(i, f)| format!("{{\"t_us\":{},\"interface\":\"udp://127.0.0.1:34000:34001\",\"frame\":\"{f}\"}}\n", 100 + i))
+        .map(|(i, f)| {
+            format!(
+                "{{\"t_us\":{},\"interface\":\"udp://127.0.0.1:34000:34001\",\"frame\":\"{f}\"}}\n",
+                100 + i
+            )
+        })
         .collect();
     let log_path = dir.path().join("capture.jsonl");
     std::fs::write(&log_path, log).expect("writes");

@@ -60,6 +60,7 @@ use std::fmt;
 use std::io;
 use std::time::Duration;
 
+pub mod bridge;
 mod serial;
 mod tcp;
 mod udp;

@@ -240,6 +240,7 @@ pub struct Bridge<const N: usize, const P: usize, const Q: usize, const A: usize
     cut_through: [Ports; N],
     timeout_us: u64,
     counters: TxCounters<A>,
+    deliver_all: bool,
 }
 
 impl<const N: usize, const P: usize, const Q: usize, const A: usize> Default
@@ -278,6 +279,7 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
             cut_through: [Ports::NONE; N],
             timeout_us: 1000,
             counters: TxCounters::new(),
+            deliver_all: false,
         }
     }
 
@@ -314,6 +316,13 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
     /// How long a cut-through frame may stall between two bytes before it is cut off.
     pub fn set_byte_timeout_us(&mut self, us: u64) {
         self.timeout_us = us;
+    }
+
+    /// Hands every intact frame to `on_local`, not only the node's own: for monitors, loggers
+    /// and missed-packet statistics. Whether a frame is for the node is
+    /// [`Router::is_own`] of its receiver, or a broadcast.
+    pub fn set_deliver_all(&mut self, all: bool) {
+        self.deliver_all = all;
     }
 
     /// Counters of interface `i`.
@@ -429,8 +438,10 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
             router,
             inputs,
             outputs,
+            deliver_all,
             ..
         } = self;
+        let deliver_all = *deliver_all;
         let Some(input) = inputs.get_mut(i) else {
             return;
         };
@@ -441,7 +452,7 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
             while let Feed::Frame { frame, remaining } = input.parser.feed(rest) {
                 let header = frame.header();
                 let decision = router.route(i, &header);
-                if decision.local {
+                if decision.local || deliver_all {
                     on_local(frame);
                 }
                 enqueue(outputs, &header, &[frame.payload()], decision.forward);
@@ -450,7 +461,15 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
             return;
         }
         for &b in bytes {
-            receive_byte(router, input, outputs, i, b, cut_through, &mut on_local);
+            receive_byte(
+                router,
+                input,
+                outputs,
+                (i, b),
+                cut_through,
+                deliver_all,
+                &mut on_local,
+            );
         }
     }
 }
@@ -460,9 +479,9 @@ fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
     router: &mut Router<N, A>,
     input: &mut Input<P>,
     outputs: &mut [Output<Q>; N],
-    i: usize,
-    b: u8,
+    (i, b): (usize, u8),
     cut_through: Ports,
+    deliver_all: bool,
     on_local: &mut impl FnMut(Frame<'_>),
 ) {
     let streams = input.streams;
@@ -496,7 +515,7 @@ fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
             if !plan.local {
                 router.learn(i, header.sender);
             }
-            if plan.local {
+            if plan.local || deliver_all {
                 on_local(frame);
             }
             enqueue(

@@ -121,23 +121,25 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             );
             Ok(ExitCode::SUCCESS)
         }
-        Command::Check { inputs, carrier } => match ferrolink_codegen::load_for(&inputs, &carrier) {
-            Ok(checked) => {
-                print_warnings(&checked.warnings);
-                let messages: usize = checked.ir.modules.iter().map(|m| m.messages.len()).sum();
-                eprintln!(
-                    "ok: {} file(s), {messages} message(s), {} enum(s), {} warning(s)",
-                    checked.ir.modules.len(),
-                    checked.ir.enums.len(),
-                    checked.warnings.len()
-                );
-                Ok(ExitCode::SUCCESS)
+        Command::Check { inputs, carrier } => {
+            match ferrolink_codegen::load_for(&inputs, &carrier) {
+                Ok(checked) => {
+                    print_warnings(&checked.warnings);
+                    let messages: usize = checked.ir.modules.iter().map(|m| m.messages.len()).sum();
+                    eprintln!(
+                        "ok: {} file(s), {messages} message(s), {} enum(s), {} warning(s)",
+                        checked.ir.modules.len(),
+                        checked.ir.enums.len(),
+                        checked.warnings.len()
+                    );
+                    Ok(ExitCode::SUCCESS)
+                }
+                Err(failed) => {
+                    eprintln!("{failed}");
+                    Ok(ExitCode::FAILURE)
+                }
             }
-            Err(failed) => {
-                eprintln!("{failed}");
-                Ok(ExitCode::FAILURE)
-            }
-        },
+        }
         Command::Ndlcom(command) => ndlcom::run(command),
         Command::Ir { inputs } => {
             let checked = ferrolink_codegen::load(&inputs)?;

@@ -21,6 +21,43 @@ pub enum Command {
         #[arg(long, default_value_t = 255)]
         max_payload: usize,
     },
+    /// Run a bridge between interfaces, printing statistics, missed packets, routes and frames.
+    ///
+    /// Interfaces are URIs: `serial:///dev/ttyUSB0[:baud]`, `udp://host[:in][:out]`,
+    /// `tcp://host[:port]`, `tcp-listen://[host]:port`, `pty://name`; a suffix `&id1,id2`
+    /// pre-seeds routes. Type `s`, `r`, `m` + Enter for statistics, routes, missed packets;
+    /// `a`/`o`/`n` to print all/own/no frames; `q` to quit.
+    Bridge {
+        #[command(flatten)]
+        links: Links,
+        /// Own ids: frames to them are delivered here (pings are answered), not forwarded.
+        #[arg(short = 'i', long = "id", value_name = "ID")]
+        own_ids: Vec<u8>,
+        /// Forward cut-through between all interfaces instead of store & forward.
+        #[arg(long)]
+        cut_through: bool,
+        /// Print frames as they pass: all, own (to own ids and broadcasts) or none.
+        #[arg(long, value_enum, default_value = "none")]
+        print: PrintArg,
+        /// Ping this id (from the first own id) every `--ping-every` seconds.
+        #[arg(long, value_name = "ID")]
+        ping: Option<u8>,
+        /// Ping period in seconds.
+        #[arg(long, default_value_t = 1.0)]
+        ping_every: f64,
+        /// Also record every frame to this log file.
+        #[arg(long, value_name = "FILE")]
+        log: Option<PathBuf>,
+    },
+    /// Record every intact frame arriving on the interfaces, with a timestamp, to a log file
+    /// (JSON lines: `t_us`, `interface`, `frame`). Nothing is forwarded.
+    Log {
+        #[command(flatten)]
+        links: Links,
+        /// The log file (appended to).
+        #[arg(long, value_name = "FILE")]
+        out: PathBuf,
+    },
     /// Export a log written by `ferrolink ndlcom log` (or a bridge's `--log`) to one CSV file
     /// per message type, decoding payloads with a dictionary.
     Export {
@@ -33,6 +70,55 @@ pub enum Command {
         #[arg(long)]
         csv: PathBuf,
     },
+}
+
+/// Interface and reporting options shared by `bridge` and `log`.
+#[derive(clap::Args)]
+pub struct Links {
+    /// An interface URI (repeat for more).
+    #[arg(short = 'u', long = "uri", value_name = "URI", required = true)]
+    uris: Vec<ferrolink_io::Endpoint>,
+    /// A mirror interface: it gets every frame and teaches the routing table nothing.
+    #[arg(short = 'm', long = "mirror", value_name = "URI")]
+    mirrors: Vec<ferrolink_io::Endpoint>,
+    /// Print statistics, routes and missed packets every this many seconds.
+    #[arg(long, value_name = "SECONDS")]
+    stats: Option<f64>,
+    /// Stop after this many seconds (the final statistics are printed).
+    #[arg(long, value_name = "SECONDS")]
+    run_for: Option<f64>,
+    /// Print JSON lines instead of text.
+    #[arg(long)]
+    json: bool,
+    /// Do not read commands from stdin.
+    #[arg(long)]
+    no_commands: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum PrintArg {
+    All,
+    Own,
+    None,
+}
+
+fn seconds(s: Option<f64>) -> Result<Option<std::time::Duration>, String> {
+    s.map(|s| std::time::Duration::try_from_secs_f64(s).map_err(|e| format!("{s} seconds: {e}")))
+        .transpose()
+}
+
+impl Links {
+    fn config(self) -> Result<ferrolink_io::bridge::Config, String> {
+        Ok(ferrolink_io::bridge::Config {
+            interfaces: self.uris,
+            mirrors: self.mirrors,
+            stats_every: seconds(self.stats)?,
+            run_for: seconds(self.run_for)?,
+            json: self.json,
+            commands: !self.no_commands,
+            ..Default::default()
+        })
+    }
 }
 
 /// One frame in the JSON form of `encode` and `decode`.
@@ -63,6 +149,40 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Encode => encode(),
         Command::Decode { max_payload } => decode(max_payload),
         Command::Export { log, dicts, csv } => export(&log, &dicts, &csv),
+        Command::Bridge {
+            links,
+            own_ids,
+            cut_through,
+            print,
+            ping,
+            ping_every,
+            log,
+        } => {
+            let config = ferrolink_io::bridge::Config {
+                own_ids,
+                cut_through,
+                print: match print {
+                    PrintArg::All => ferrolink_io::bridge::Print::All,
+                    PrintArg::Own => ferrolink_io::bridge::Print::Own,
+                    PrintArg::None => ferrolink_io::bridge::Print::None,
+                },
+                ping,
+                ping_every: seconds(Some(ping_every))?.unwrap_or_default(),
+                log,
+                ..links.config()?
+            };
+            ferrolink_io::bridge::run(config)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Log { links, out } => {
+            let config = ferrolink_io::bridge::Config {
+                log: Some(out),
+                log_only: true,
+                ..links.config()?
+            };
+            ferrolink_io::bridge::run(config)?;
+            Ok(ExitCode::SUCCESS)
+        }
     }
 }
 
@@ -207,7 +327,11 @@ fn export(
         }
         let entry = serde_json::from_str::<LogLine>(&line)
             .map_err(|e| e.to_string())
-            .and_then(|l| hex::decode(&l.frame).map(|b| (l.t_us, b)).map_err(|e| e.to_string()));
+            .and_then(|l| {
+                hex::decode(&l.frame)
+                    .map(|b| (l.t_us, b))
+                    .map_err(|e| e.to_string())
+            });
         let (t_us, bytes) = match entry {
             Ok(entry) => entry,
             Err(e) => {

@@ -1,0 +1,181 @@
+//! Real `ferrolink ndlcom bridge` processes: three chained over UDP loopback, and two over a
+//! pseudo-terminal where the machine allows it.
+
+use std::net::UdpSocket;
+use std::process::{Child, Command, Stdio};
+use std::thread::sleep;
+use std::time::Duration;
+
+use serde_json::Value;
+
+/// A UDP port nobody uses right now.
+fn free_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+fn bridge(args: &[String]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_ferrolink"))
+        .args(["ndlcom", "bridge", "--json", "--no-commands"])
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("starts")
+}
+
+/// The JSON events a finished bridge printed.
+fn events(child: Child) -> Vec<Value> {
+    let out = child.wait_with_output().expect("finishes");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "bridge failed: {}\n{stdout}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+fn last<'a>(events: &'a [Value], kind: &str) -> &'a Value {
+    events
+        .iter()
+        .rev()
+        .find(|e| e["event"] == kind)
+        .unwrap_or_else(|| panic!("no {kind} event in {events:?}"))
+}
+
+fn stat(events: &[Value], interface: usize, key: &str) -> u64 {
+    last(events, "stats")["interfaces"][interface][key]
+        .as_u64()
+        .expect("a counter")
+}
+
+fn s(x: impl ToString) -> String {
+    x.to_string()
+}
+
+#[test]
+fn three_bridges_over_udp() {
+    let (ab, ba, bc, cb) = (free_port(), free_port(), free_port(), free_port());
+    // A (id 1) <-> B (id 2) <-> C (id 3); A pings C through B.
+    let c = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{cb}:{bc}"),
+        s("-i"),
+        s(3),
+        s("--run-for"),
+        s(3.0),
+    ]);
+    let b = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{ba}:{ab}"),
+        s("-u"),
+        format!("udp://127.0.0.1:{bc}:{cb}"),
+        s("-i"),
+        s(2),
+        s("--run-for"),
+        s(2.6),
+    ]);
+    sleep(Duration::from_millis(400));
+    let a = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{ab}:{ba}"),
+        s("-i"),
+        s(1),
+        s("--ping"),
+        s(3),
+        s("--ping-every"),
+        s(0.1),
+        s("--run-for"),
+        s(1.5),
+    ]);
+    let (a, b, c) = (events(a), events(b), events(c));
+
+    // Every ping was answered from the other end.
+    let pings = stat(&a, 0, "tx_frames");
+    let replies: Vec<&Value> = a.iter().filter(|e| e["event"] == "ping_reply").collect();
+    assert!(pings >= 10, "{pings} pings");
+    assert_eq!(replies.len() as u64, pings);
+    assert!(replies.iter().all(|r| r["from"] == 3));
+    assert_eq!(last(&c, "stats")["interfaces"][0]["tx_frames"], pings);
+
+    // B learned where 1 and 3 are (from the transit frames, Algorithm 1).
+    let routes = &last(&b, "routes")["routes"];
+    let names = |i: usize| last(&b, "stats")["interfaces"][i]["interface"].clone();
+    let route = |id: u64| {
+        routes
+            .as_array()
+            .expect("routes")
+            .iter()
+            .find(|r| r["id"] == id)
+            .map(|r| r["interface"].clone())
+    };
+    assert_eq!(route(1), Some(names(0)));
+    assert_eq!(route(3), Some(names(1)));
+
+    // The statistics add up along the chain.
+    assert_eq!(stat(&a, 0, "tx_frames"), stat(&b, 0, "rx_frames"));
+    assert_eq!(stat(&a, 0, "tx_bytes"), stat(&b, 0, "rx_bytes"));
+    assert_eq!(stat(&b, 1, "tx_frames"), stat(&c, 0, "rx_frames"));
+    assert_eq!(stat(&c, 0, "tx_bytes"), stat(&b, 1, "rx_bytes"));
+    assert_eq!(stat(&b, 0, "tx_frames"), stat(&a, 0, "rx_frames"));
+    assert_eq!(stat(&b, 0, "rx_frames"), stat(&b, 1, "tx_frames"));
+    for e in [&a, &b, &c] {
+        for i in 0..e.len().min(1) {
+            assert_eq!(stat(e, i, "crc_failures") + stat(e, i, "dropped"), 0);
+        }
+    }
+    assert_eq!(last(&b, "missed")["total"], 0);
+}
+
+#[test]
+fn two_bridges_over_a_pty() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let tty = dir.path().join("ttyNDL");
+    let tty = tty.to_str().expect("utf-8");
+    let a = bridge(&[
+        s("-u"),
+        format!("pty://{tty}"),
+        s("-i"),
+        s(1),
+        s("--run-for"),
+        s(2.0),
+    ]);
+    // Wait for the pty to appear; some sandboxes have no ptys at all.
+    for _ in 0..50 {
+        if std::fs::symlink_metadata(tty).is_ok() {
+            break;
+        }
+        sleep(Duration::from_millis(20));
+    }
+    if std::fs::symlink_metadata(tty).is_err() {
+        let out = a.wait_with_output().expect("finishes");
+        eprintln!(
+            "skipped: no pseudo-terminal on this machine ({})",
+            String::from_utf8_lossy(&out.stderr).trim()
+        );
+        return;
+    }
+    let b = bridge(&[
+        s("-u"),
+        format!("serial://{tty}:921600"),
+        s("-i"),
+        s(2),
+        s("--ping"),
+        s(1),
+        s("--ping-every"),
+        s(0.1),
+        s("--run-for"),
+        s(1.2),
+    ]);
+    let (b, a) = (events(b), events(a));
+    let replies = b.iter().filter(|e| e["event"] == "ping_reply").count() as u64;
+    assert!(replies >= 8, "{replies} replies");
+    assert_eq!(replies, stat(&b, 0, "tx_frames"));
+    assert_eq!(stat(&a, 0, "rx_frames"), stat(&b, 0, "tx_frames"));
+}

@@ -1,0 +1,494 @@
+//! The NDLCom bridge program: the runtime's [`Bridge`] over real links.
+//!
+//! One reader thread per link feeds a channel; the main loop feeds the bridge, answers pings
+//! for its own ids, tracks missed packets, writes the log, drains the output queues into the
+//! links and prints what was asked for. `ferrolink ndlcom bridge` and `ferrolink ndlcom log` are
+//! thin wrappers around [`run`].
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::{self, BufRead, BufWriter, Write};
+use std::path::PathBuf;
+use std::sync::mpsc;
+use std::thread;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use ferrolink_generated::mavlink::minimal::{self, Ping};
+use ferrolink_runtime::mavlink::Dialect;
+use ferrolink_runtime::ndlcom::bridge::{Bridge, IfaceStats, Mode};
+use ferrolink_runtime::ndlcom::counters::{MissTracker, Observation};
+use ferrolink_runtime::ndlcom::{self, payload, storage_len, Frame, Header, BROADCAST};
+use serde_json::json;
+
+use crate::{Endpoint, Link, LinkWriter};
+
+/// The most interfaces (mirrors included) one bridge process serves.
+pub const MAX_INTERFACES: usize = 8;
+/// Bytes per output queue.
+pub const QUEUE_BYTES: usize = 16 * 1024;
+
+type Node = Bridge<MAX_INTERFACES, { storage_len(ndlcom::MAX_PAYLOAD_LEN) }, QUEUE_BYTES>;
+
+/// Which frames to print as they pass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Print {
+    /// None.
+    #[default]
+    None,
+    /// Frames for the bridge's own ids (and broadcasts).
+    Own,
+    /// Every intact frame.
+    All,
+}
+
+/// What the bridge program does.
+#[derive(Debug, Clone, Default)]
+pub struct Config {
+    /// The interfaces, in order (interface 0 first).
+    pub interfaces: Vec<Endpoint>,
+    /// Mirror interfaces: they get every frame and teach nothing.
+    pub mirrors: Vec<Endpoint>,
+    /// Own ids: frames to them are answered (pings) and not forwarded.
+    pub own_ids: Vec<u8>,
+    /// Forward cut-through between all interface pairs instead of store & forward.
+    pub cut_through: bool,
+    /// Frames to print.
+    pub print: Print,
+    /// Print statistics, missed packets and routes this often.
+    pub stats_every: Option<Duration>,
+    /// Stop after this long (statistics are printed at the end).
+    pub run_for: Option<Duration>,
+    /// Send a ping to this id every `ping_every`, from the first own id.
+    pub ping: Option<u8>,
+    /// Ping period.
+    pub ping_every: Duration,
+    /// Append every intact frame to this file (JSON lines: `t_us`, `interface`, `frame`).
+    pub log: Option<PathBuf>,
+    /// Only record: nothing is forwarded or answered.
+    pub log_only: bool,
+    /// Print JSON lines instead of text.
+    pub json: bool,
+    /// Read commands from stdin: `s` statistics, `r` routes, `m` missed packets, `a`/`o`/`n`
+    /// print all/own/no frames, `q` quit.
+    pub commands: bool,
+}
+
+enum Event {
+    Rx(usize, Vec<u8>),
+    LinkDown(usize, io::Error),
+    Command(String),
+}
+
+struct Program {
+    config: Config,
+    names: Vec<String>,
+    node: Box<Node>,
+    writers: Vec<Box<dyn LinkWriter>>,
+    tx_errors: Vec<u64>,
+    missed: Box<MissTracker<256>>,
+    missed_pairs: BTreeMap<(u8, u8), u64>,
+    log: Option<BufWriter<File>>,
+    start: Instant,
+    out: BufWriter<io::Stdout>,
+    ping_seq: u32,
+    ping_sent: BTreeMap<u32, Instant>,
+    replies: u64,
+}
+
+fn unix_us() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_micros() as u64)
+}
+
+/// Runs the bridge until `run_for` elapses, `q` is read, or every link is gone.
+pub fn run(config: Config) -> io::Result<()> {
+    let endpoints: Vec<&Endpoint> = config.interfaces.iter().chain(&config.mirrors).collect();
+    if endpoints.is_empty() || endpoints.len() > MAX_INTERFACES {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("give 1 to {MAX_INTERFACES} interfaces (mirrors included)"),
+        ));
+    }
+    let mut node: Box<Node> = Box::default();
+    node.set_deliver_all(true);
+    let router = node.router_mut();
+    if config.log_only {
+        for id in 0..=u8::MAX {
+            router.add_own_id(id);
+        }
+    }
+    for &id in &config.own_ids {
+        router.add_own_id(id);
+    }
+    let (tx, rx) = mpsc::channel();
+    let mut names = Vec::new();
+    let mut writers = Vec::new();
+    for (i, endpoint) in endpoints.iter().enumerate() {
+        let link = Link::open(endpoint)?;
+        names.push(link.name().to_owned());
+        for &id in &endpoint.routes {
+            node.router_mut().seed(id, i);
+        }
+        if i >= config.interfaces.len() {
+            node.router_mut().set_mirror(i, true);
+        }
+        let (mut reader, writer) = link.split();
+        writers.push(writer);
+        let tx = tx.clone();
+        thread::spawn(move || {
+            let mut buf = vec![0u8; 64 * 1024];
+            loop {
+                match reader.read(&mut buf, Duration::from_millis(100)) {
+                    Ok(0) => {}
+                    Ok(n) => {
+                        if tx.send(Event::Rx(i, buf[..n].to_vec())).is_err() {
+                            return;
+                        }
+                    }
+                    Err(e) => {
+                        let _ = tx.send(Event::LinkDown(i, e));
+                        return;
+                    }
+                }
+            }
+        });
+    }
+    if config.cut_through {
+        for from in 0..names.len() {
+            for to in 0..names.len() {
+                if from != to {
+                    node.set_mode(from, to, Mode::CutThrough);
+                }
+            }
+        }
+    }
+    if config.commands {
+        let tx = tx.clone();
+        thread::spawn(move || {
+            for line in io::stdin().lock().lines() {
+                let Ok(line) = line else { return };
+                if tx.send(Event::Command(line)).is_err() {
+                    return;
+                }
+            }
+        });
+    }
+    drop(tx);
+    let log = match &config.log {
+        Some(path) => Some(BufWriter::new(
+            File::options().create(true).append(true).open(path)?,
+        )),
+        None => None,
+    };
+    let mut program = Program {
+        tx_errors: vec![0; names.len()],
+        names,
+        node,
+        writers,
+        missed: Box::default(),
+        missed_pairs: BTreeMap::new(),
+        log,
+        start: Instant::now(),
+        out: BufWriter::new(io::stdout()),
+        ping_seq: 0,
+        ping_sent: BTreeMap::new(),
+        replies: 0,
+        config,
+    };
+    program.main_loop(rx)
+}
+
+impl Program {
+    fn now_us(&self) -> u64 {
+        self.start.elapsed().as_micros() as u64
+    }
+
+    fn main_loop(&mut self, rx: mpsc::Receiver<Event>) -> io::Result<()> {
+        let mut next_stats = self.config.stats_every.map(|d| self.start + d);
+        let mut next_ping = self.config.ping.map(|_| self.start);
+        let deadline = self.config.run_for.map(|d| self.start + d);
+        let mut links_up = self.names.len();
+        loop {
+            let now = Instant::now();
+            if deadline.is_some_and(|d| now >= d) || links_up == 0 {
+                break;
+            }
+            let mut wake = now + Duration::from_millis(5);
+            for t in [next_stats, next_ping, deadline].into_iter().flatten() {
+                wake = wake.min(t);
+            }
+            match rx.recv_timeout(wake.saturating_duration_since(now)) {
+                Ok(Event::Rx(i, bytes)) => self.receive(i, &bytes)?,
+                Ok(Event::LinkDown(i, e)) => {
+                    links_up -= 1;
+                    self.node.link_down(i);
+                    let name = self.names.get(i).cloned().unwrap_or_default();
+                    self.report(
+                        json!({"event": "link_down", "interface": name, "error": e.to_string()}),
+                        format!("link down: {name}: {e}"),
+                    )?;
+                }
+                Ok(Event::Command(line)) => {
+                    if !self.command(line.trim())? {
+                        break;
+                    }
+                }
+                Err(mpsc::RecvTimeoutError::Timeout) => {}
+                Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            }
+            let now_us = self.now_us();
+            self.node.poll(now_us);
+            let now = Instant::now();
+            if let (Some(target), Some(at)) = (self.config.ping, next_ping) {
+                if now >= at && deadline.is_none_or(|d| now < d) {
+                    self.send_ping(target)?;
+                    next_ping = Some(at + self.config.ping_every);
+                }
+            }
+            self.flush_outputs();
+            if let (Some(every), Some(at)) = (self.config.stats_every, next_stats) {
+                if now >= at {
+                    self.print_everything()?;
+                    next_stats = Some(at + every);
+                }
+            }
+            self.out.flush()?;
+        }
+        // Let the last replies go out, then the final report.
+        self.flush_outputs();
+        self.print_everything()?;
+        if let Some(log) = &mut self.log {
+            log.flush()?;
+        }
+        self.out.flush()
+    }
+
+    fn receive(&mut self, i: usize, bytes: &[u8]) -> io::Result<()> {
+        let now_us = self.now_us();
+        let mut frames: Vec<(Header, Vec<u8>)> = Vec::new();
+        self.node.receive(i, bytes, now_us, |frame: Frame<'_>| {
+            frames.push((frame.header(), frame.payload().to_vec()));
+        });
+        for (header, payload) in frames {
+            self.frame(i, &header, &payload)?;
+        }
+        self.flush_outputs();
+        Ok(())
+    }
+
+    fn is_own(&self, receiver: u8) -> bool {
+        receiver == BROADCAST || self.config.own_ids.contains(&receiver)
+    }
+
+    fn frame(&mut self, i: usize, header: &Header, payload: &[u8]) -> io::Result<()> {
+        if let Observation::Missed(n) = self.missed.observe(header) {
+            *self
+                .missed_pairs
+                .entry((header.sender, header.receiver))
+                .or_default() += u64::from(n);
+        }
+        let own = self.is_own(header.receiver);
+        let name = self.names.get(i).cloned().unwrap_or_default();
+        if let Some(log) = &mut self.log {
+            let mut buf = [0u8; ndlcom::MAX_FRAME_LEN];
+            if let Ok(n) = ndlcom::encode(header, payload, &mut buf) {
+                let line =
+                    json!({"t_us": unix_us(), "interface": name, "frame": hex::encode(&buf[..n])});
+                writeln!(log, "{line}")?;
+            }
+        }
+        if self.config.print == Print::All || (self.config.print == Print::Own && own) {
+            let message = payload::message_id(payload)
+                .and_then(|id| minimal::Message::meta_of(id.into()))
+                .map_or("", |m| m.name);
+            self.report(
+                json!({"event": "frame", "interface": name, "receiver": header.receiver,
+                       "sender": header.sender, "counter": header.counter,
+                       "message": message, "payload": hex::encode(payload)}),
+                format!(
+                    "{name}: {:>3} -> {:>3} #{:<3} {:<12} {}",
+                    header.sender,
+                    header.receiver,
+                    header.counter,
+                    message,
+                    hex::encode(payload)
+                ),
+            )?;
+        }
+        if own && !self.config.log_only && header.receiver != BROADCAST {
+            if let Ok(ping) = payload::decode_message::<Ping>(payload) {
+                self.answer_ping(header, ping)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn answer_ping(&mut self, header: &Header, ping: Ping) -> io::Result<()> {
+        if ping.target_system == 0 {
+            let reply = Ping {
+                target_system: header.sender,
+                ..ping
+            };
+            self.send(header.sender, header.receiver, &reply);
+            return Ok(());
+        }
+        // A reply to one of ours.
+        if let Some(sent) = self.ping_sent.remove(&ping.seq) {
+            self.replies += 1;
+            let rtt = sent.elapsed().as_micros() as u64;
+            self.report(
+                json!({"event": "ping_reply", "from": header.sender, "seq": ping.seq, "rtt_us": rtt}),
+                format!("reply from {} seq {} in {rtt} us", header.sender, ping.seq),
+            )?;
+        }
+        Ok(())
+    }
+
+    fn send_ping(&mut self, target: u8) -> io::Result<()> {
+        let Some(&own) = self.config.own_ids.first() else {
+            return Ok(());
+        };
+        self.ping_seq += 1;
+        let ping = Ping {
+            time_usec: unix_us(),
+            seq: self.ping_seq,
+            target_system: 0,
+            target_component: 0,
+        };
+        self.ping_sent.insert(ping.seq, Instant::now());
+        // Forget requests that were never answered.
+        while self.ping_sent.len() > 64 {
+            self.ping_sent.pop_first();
+        }
+        self.send(target, own, &ping);
+        Ok(())
+    }
+
+    fn send(&mut self, receiver: u8, sender: u8, msg: &Ping) {
+        let mut buf = [0u8; ndlcom::MAX_PAYLOAD_LEN];
+        if let Ok(n) = payload::encode_message(msg, &mut buf) {
+            let _ = self.node.send(receiver, sender, &[&buf[..n]]);
+        }
+        self.flush_outputs();
+    }
+
+    fn flush_outputs(&mut self) {
+        let mut buf = [0u8; QUEUE_BYTES];
+        for (i, writer) in self.writers.iter_mut().enumerate() {
+            loop {
+                let n = self.node.transmit(i, &mut buf);
+                if n == 0 {
+                    break;
+                }
+                if writer.write_all(&buf[..n]).is_err() {
+                    if let Some(e) = self.tx_errors.get_mut(i) {
+                        *e += 1;
+                    }
+                }
+            }
+        }
+    }
+
+    fn command(&mut self, line: &str) -> io::Result<bool> {
+        match line {
+            "s" => self.print_stats()?,
+            "r" => self.print_routes()?,
+            "m" => self.print_missed()?,
+            "a" => self.config.print = Print::All,
+            "o" => self.config.print = Print::Own,
+            "n" => self.config.print = Print::None,
+            "q" => return Ok(false),
+            "" => {}
+            other => eprintln!(
+                "unknown command `{other}`: s stats, r routes, m missed, a/o/n print all/own/none, q quit"
+            ),
+        }
+        Ok(true)
+    }
+
+    fn report(&mut self, json: serde_json::Value, text: String) -> io::Result<()> {
+        if self.config.json {
+            writeln!(self.out, "{json}")
+        } else {
+            writeln!(self.out, "{text}")
+        }
+    }
+
+    fn print_everything(&mut self) -> io::Result<()> {
+        self.print_stats()?;
+        self.print_routes()?;
+        self.print_missed()
+    }
+
+    fn print_stats(&mut self) -> io::Result<()> {
+        let rows: Vec<(String, IfaceStats, u64)> = self
+            .names
+            .iter()
+            .enumerate()
+            .map(|(i, n)| (n.clone(), self.node.stats(i), self.tx_errors[i]))
+            .collect();
+        let json = json!({"event": "stats", "t_us": self.now_us(), "pings_sent": self.ping_seq, "pings_answered": self.replies,
+            "interfaces": rows.iter().map(|(name, s, e)| json!({
+                "interface": name, "rx_frames": s.rx_frames, "rx_bytes": s.rx_bytes,
+                "tx_frames": s.tx_frames, "tx_bytes": s.tx_bytes, "crc_failures": s.crc_failures,
+                "dropped": s.dropped, "queue_overflows": s.queue_overflows,
+                "cut_through": s.cut_through, "timeouts": s.timeouts, "tx_errors": e,
+            })).collect::<Vec<_>>()});
+        let mut text = format!(
+            "{:<36} {:>9} {:>11} {:>9} {:>11} {:>6} {:>7} {:>8}\n",
+            "interface",
+            "rx frames",
+            "rx bytes",
+            "tx frames",
+            "tx bytes",
+            "crc",
+            "dropped",
+            "overflow"
+        );
+        for (name, s, _) in &rows {
+            let _ = writeln!(
+                text,
+                "{name:<36} {:>9} {:>11} {:>9} {:>11} {:>6} {:>7} {:>8}",
+                s.rx_frames,
+                s.rx_bytes,
+                s.tx_frames,
+                s.tx_bytes,
+                s.crc_failures,
+                s.dropped,
+                s.queue_overflows
+            );
+        }
+        self.report(json, text.trim_end().to_owned())
+    }
+
+    fn print_routes(&mut self) -> io::Result<()> {
+        let routes: Vec<(u8, usize)> = self.node.router().routes().collect();
+        let json = json!({"event": "routes", "routes": routes.iter().map(|(id, i)| json!({
+            "id": id, "interface": self.names.get(*i)})).collect::<Vec<_>>()});
+        let mut text = String::from("routes:");
+        for (id, i) in &routes {
+            let _ = write!(
+                text,
+                "\n  {id:>3} -> {}",
+                self.names.get(*i).map_or("?", |n| n)
+            );
+        }
+        if routes.is_empty() {
+            text.push_str(" none learned");
+        }
+        self.report(json, text)
+    }
+
+    fn print_missed(&mut self) -> io::Result<()> {
+        let pairs: Vec<((u8, u8), u64)> = self.missed_pairs.iter().map(|(k, v)| (*k, *v)).collect();
+        let json = json!({"event": "missed", "total": self.missed.missed(),
+            "pairs": pairs.iter().map(|((s, r), n)| json!({"sender": s, "receiver": r, "missed": n})).collect::<Vec<_>>()});
+        let mut text = format!("missed packets: {}", self.missed.missed());
+        for ((s, r), n) in &pairs {
+            let _ = write!(text, "\n  {s:>3} -> {r:>3}: {n}");
+        }
+        self.report(json, text)
+    }
+}
