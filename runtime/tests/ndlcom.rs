@@ -10,9 +10,12 @@ use proptest::prelude::*;
 #[path = "scripts/ndlcom.rs"]
 mod scripts;
 
+/// (receiver, sender, counter, payload, encoded).
+type GoldenRow = (u8, u8, u8, Vec<u8>, Vec<u8>);
+
 /// (receiver, sender, counter, payload, encoded), from the protocol facts.
 fn golden() -> Vec<(Header, Vec<u8>, Vec<u8>)> {
-    let rows: [(u8, u8, u8, Vec<u8>, Vec<u8>); 6] = [
+    let rows: [GoldenRow; 6] = [
         (0, 0, 0, vec![], vec![126, 0, 0, 0, 0, 33, 3, 126]),
         (
             0,
