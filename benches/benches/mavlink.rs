@@ -13,9 +13,11 @@
 //! The messages come from `ferrolink_generated::mavlink::minimal`, whose HEARTBEAT, ATTITUDE and
 //! FILE_TRANSFER_PROTOCOL are byte-identical to MAVLink common's.
 
+mod harness;
+
+use harness::{compare, BATCHES, BATCH_TARGET};
 use std::hint::black_box;
 use std::io::ErrorKind;
-use std::time::{Duration, Instant};
 
 use ferrolink_generated::mavlink::minimal as ours;
 use ferrolink_runtime::mavlink::{v2, Dialect, Header, Parser};
@@ -23,12 +25,6 @@ use mavlink::dialects::common as theirs;
 use mavlink::error::MessageReadError;
 use mavlink::{MAVLinkV2MessageRaw, MavHeader, MavlinkReader, MavlinkVersion, Message as _};
 
-/// Wall time of one timed batch.
-const BATCH_TARGET: Duration = Duration::from_millis(20);
-/// Timed batches per implementation and case (odd, for a clean median).
-const BATCHES: usize = 31;
-/// Untimed running before calibration.
-const WARMUP: Duration = Duration::from_millis(100);
 /// Size of the stream-parsing input.
 const STREAM_BYTES: usize = 1 << 20;
 
@@ -226,56 +222,6 @@ fn theirs_stream(stream: &[u8]) -> usize {
             Err(e) => panic!("stream: {e}"),
         }
     }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Harness.
-// ---------------------------------------------------------------------------------------------
-
-/// Runs `op` `reps` times, passing the iteration number.
-#[inline(never)]
-fn run_batch(op: &mut impl FnMut(u64), reps: u64) -> Duration {
-    let start = Instant::now();
-    for i in 0..reps {
-        op(i);
-    }
-    start.elapsed()
-}
-
-/// How many calls of `op` take about `BATCH_TARGET`, after warming up.
-fn calibrate(op: &mut impl FnMut(u64)) -> u64 {
-    let start = Instant::now();
-    let mut reps = 1u64;
-    while start.elapsed() < WARMUP {
-        run_batch(op, reps);
-        reps = (reps * 2).min(1 << 30);
-    }
-    let mut reps = 1u64;
-    loop {
-        let t = run_batch(op, reps);
-        if t >= BATCH_TARGET / 4 {
-            let scaled = reps as f64 * BATCH_TARGET.as_secs_f64() / t.as_secs_f64();
-            return (scaled as u64).max(1);
-        }
-        reps *= 2;
-    }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-/// Median seconds per call of each operation, from alternating batches.
-fn compare(mut a: impl FnMut(u64), mut b: impl FnMut(u64)) -> (f64, f64) {
-    let (ra, rb) = (calibrate(&mut a), calibrate(&mut b));
-    let mut ta = Vec::with_capacity(BATCHES);
-    let mut tb = Vec::with_capacity(BATCHES);
-    for _ in 0..BATCHES {
-        ta.push(run_batch(&mut a, ra).as_secs_f64() / ra as f64);
-        tb.push(run_batch(&mut b, rb).as_secs_f64() / rb as f64);
-    }
-    (median(ta), median(tb))
 }
 
 fn fmt_rate(per_sec: f64) -> String {

@@ -20,17 +20,13 @@
 //! hits both alike), and the median batch of each is reported. The ratio is the operation's
 //! throughput over memcpy's: encode/memcpy and decode/memcpy. The runtime is built with its `fast-crc` feature (8 KiB table).
 
+mod harness;
+
+use harness::{compare, BATCHES, BATCH_TARGET};
 use std::hint::black_box;
-use std::time::{Duration, Instant};
 
 use ferrolink_runtime::ndlcom::{encode, max_encoded_len, storage_len, Header, Parser};
 
-/// Wall time of one timed batch.
-const BATCH_TARGET: Duration = Duration::from_millis(20);
-/// Timed batches per operation and case (odd, for a clean median).
-const BATCHES: usize = 31;
-/// Untimed running before calibration.
-const WARMUP: Duration = Duration::from_millis(100);
 /// Size of the stream-decoding input.
 const STREAM_BYTES: usize = 1 << 20;
 /// Seed of the payload bytes.
@@ -142,56 +138,6 @@ fn memcpy(len: usize) -> impl FnMut(u64) {
         dst.copy_from_slice(black_box(&src));
         black_box(&mut dst);
     }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Harness.
-// ---------------------------------------------------------------------------------------------
-
-/// Runs `op` `reps` times, passing the iteration number.
-#[inline(never)]
-fn run_batch(op: &mut impl FnMut(u64), reps: u64) -> Duration {
-    let start = Instant::now();
-    for i in 0..reps {
-        op(i);
-    }
-    start.elapsed()
-}
-
-/// How many calls of `op` take about `BATCH_TARGET`, after warming up.
-fn calibrate(op: &mut impl FnMut(u64)) -> u64 {
-    let start = Instant::now();
-    let mut reps = 1u64;
-    while start.elapsed() < WARMUP {
-        run_batch(op, reps);
-        reps = (reps * 2).min(1 << 30);
-    }
-    let mut reps = 1u64;
-    loop {
-        let t = run_batch(op, reps);
-        if t >= BATCH_TARGET / 4 {
-            let scaled = reps as f64 * BATCH_TARGET.as_secs_f64() / t.as_secs_f64();
-            return (scaled as u64).max(1);
-        }
-        reps *= 2;
-    }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-/// Median seconds per call of each operation, from alternating batches.
-fn compare(mut a: impl FnMut(u64), mut b: impl FnMut(u64)) -> (f64, f64) {
-    let (ra, rb) = (calibrate(&mut a), calibrate(&mut b));
-    let mut ta = Vec::with_capacity(BATCHES);
-    let mut tb = Vec::with_capacity(BATCHES);
-    for _ in 0..BATCHES {
-        ta.push(run_batch(&mut a, ra).as_secs_f64() / ra as f64);
-        tb.push(run_batch(&mut b, rb).as_secs_f64() / rb as f64);
-    }
-    (median(ta), median(tb))
 }
 
 /// Runs the cases whose name contains one of the filters (all when there are none) and

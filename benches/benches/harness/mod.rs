@@ -1,0 +1,58 @@
+//! The benchmarks' small harness: every case is calibrated to batches of about
+//! [`BATCH_TARGET`], then the two operations compared run alternating batches (so load from
+//! other processes hits both alike) and the median time per call of each is taken.
+
+use std::time::{Duration, Instant};
+
+/// Wall time of one timed batch.
+pub const BATCH_TARGET: Duration = Duration::from_millis(20);
+/// Timed batches per implementation and case (odd, for a clean median).
+pub const BATCHES: usize = 31;
+/// Untimed running before calibration.
+pub const WARMUP: Duration = Duration::from_millis(100);
+
+/// Runs `op` `reps` times, passing the iteration number.
+#[inline(never)]
+pub fn run_batch(op: &mut impl FnMut(u64), reps: u64) -> Duration {
+    let start = Instant::now();
+    for i in 0..reps {
+        op(i);
+    }
+    start.elapsed()
+}
+
+/// How many calls of `op` take about `BATCH_TARGET`, after warming up.
+pub fn calibrate(op: &mut impl FnMut(u64)) -> u64 {
+    let start = Instant::now();
+    let mut reps = 1u64;
+    while start.elapsed() < WARMUP {
+        run_batch(op, reps);
+        reps = (reps * 2).min(1 << 30);
+    }
+    let mut reps = 1u64;
+    loop {
+        let t = run_batch(op, reps);
+        if t >= BATCH_TARGET / 4 {
+            let scaled = reps as f64 * BATCH_TARGET.as_secs_f64() / t.as_secs_f64();
+            return (scaled as u64).max(1);
+        }
+        reps *= 2;
+    }
+}
+
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Median seconds per call of each operation, from alternating batches.
+pub fn compare(mut a: impl FnMut(u64), mut b: impl FnMut(u64)) -> (f64, f64) {
+    let (ra, rb) = (calibrate(&mut a), calibrate(&mut b));
+    let mut ta = Vec::with_capacity(BATCHES);
+    let mut tb = Vec::with_capacity(BATCHES);
+    for _ in 0..BATCHES {
+        ta.push(run_batch(&mut a, ra).as_secs_f64() / ra as f64);
+        tb.push(run_batch(&mut b, rb).as_secs_f64() / rb as f64);
+    }
+    (median(ta), median(tb))
+}
