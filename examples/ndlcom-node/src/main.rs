@@ -136,8 +136,8 @@ mod node {
 fn main() -> ! {
     // `#[entry]` turns these into `&'static mut` references (they must come first in the
     // body). All of them start as zero bytes, so they land in .bss and cost no flash for an
-    // initial image: the parsers and the routing table (whose "unknown" is 0xFF) are set up
-    // here, at run time, instead of in a `const` initialiser that would go to .data.
+    // initial image: the parsers (whose empty state is not all zero bytes) and the router are
+    // set up here, at run time, instead of in a `const` initialiser that could go to .data.
     static mut STORAGE: [[u8; node::STORAGE]; IFACES] = [[0; node::STORAGE]; IFACES];
     static mut PARSERS: node::Slot<[node::NodeParser; IFACES]> = node::Slot::Empty;
     static mut ROUTER: node::Slot<node::NodeRouter> = node::Slot::Empty;

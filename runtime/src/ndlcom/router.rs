@@ -133,7 +133,9 @@ impl AddrSet {
     }
 }
 
-const UNKNOWN: u8 = u8::MAX;
+/// A table entry is the interface index plus one, so that 0 (unknown) lets a router live in
+/// zero-initialised memory (`.bss`) instead of costing a flash image.
+const UNKNOWN: u8 = 0;
 
 /// The routing state of a node with `N` interfaces (at most 32) and a table of `A` addresses
 /// (256 for all; ids at or above `A` are always flooded).
@@ -206,9 +208,10 @@ impl<const N: usize, const A: usize> Router<N, A> {
     }
 
     fn set(&mut self, id: u8, i: usize) {
-        if let (Some(slot), Ok(i)) = (self.table.get_mut(usize::from(id)), u8::try_from(i)) {
-            if usize::from(i) < N {
-                *slot = i;
+        // N is at most 32, so `i + 1` fits a byte.
+        if i < N {
+            if let Some(slot) = self.table.get_mut(usize::from(id)) {
+                *slot = (i + 1) as u8;
             }
         }
     }
@@ -230,7 +233,7 @@ impl<const N: usize, const A: usize> Router<N, A> {
     /// Forgets every unpinned route through interface `i`, e.g. when its link went down.
     pub fn invalidate(&mut self, i: usize) {
         for (id, slot) in self.table.iter_mut().enumerate() {
-            if usize::from(*slot) == i && !self.internal.contains(id as u8) {
+            if usize::from(*slot) == i.wrapping_add(1) && !self.internal.contains(id as u8) {
                 *slot = UNKNOWN;
             }
         }
@@ -241,8 +244,8 @@ impl<const N: usize, const A: usize> Router<N, A> {
     pub fn lookup(&self, id: u8) -> Option<usize> {
         self.table
             .get(usize::from(id))
-            .filter(|&&i| i != UNKNOWN)
-            .map(|&i| usize::from(i))
+            .filter(|&&entry| entry != UNKNOWN)
+            .map(|&entry| usize::from(entry) - 1)
     }
 
     /// Every known route, as (address, interface).
