@@ -15,7 +15,7 @@ use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use ferrolink_generated::mavlink::minimal::{self, Ping};
-use ferrolink_runtime::mavlink::Dialect;
+use ferrolink_runtime::mavlink::{Dialect, Message};
 use ferrolink_runtime::ndlcom::bridge::{Bridge, IfaceStats, Mode};
 use ferrolink_runtime::ndlcom::counters::{MissTracker, Observation};
 use ferrolink_runtime::ndlcom::{self, payload, storage_len, Frame, Header, BROADCAST};
@@ -278,10 +278,6 @@ impl Program {
         Ok(())
     }
 
-    fn is_own(&self, receiver: u8) -> bool {
-        receiver == BROADCAST || self.config.own_ids.contains(&receiver)
-    }
-
     fn frame(&mut self, i: usize, header: &Header, payload: &[u8]) -> io::Result<()> {
         if let Observation::Missed(n) = self.missed.observe(header) {
             *self
@@ -289,7 +285,7 @@ impl Program {
                 .entry((header.sender, header.receiver))
                 .or_default() += u64::from(n);
         }
-        let own = self.is_own(header.receiver);
+        let own = header.receiver == BROADCAST || self.node.router().is_own(header.receiver);
         let name = self.names.get(i).cloned().unwrap_or_default();
         if let Some(log) = &mut self.log {
             let mut buf = [0u8; ndlcom::MAX_FRAME_LEN];
@@ -366,7 +362,7 @@ impl Program {
         Ok(())
     }
 
-    fn send(&mut self, receiver: u8, sender: u8, msg: &Ping) {
+    fn send(&mut self, receiver: u8, sender: u8, msg: &impl Message) {
         let mut buf = [0u8; ndlcom::MAX_PAYLOAD_LEN];
         if let Ok(n) = payload::encode_message(msg, &mut buf) {
             let _ = self.node.send(receiver, sender, &[&buf[..n]]);

@@ -2,8 +2,9 @@
 //! store & forward or cut-through, chosen per interface pair.
 //!
 //! - **Store & forward** (the default): a frame is parsed whole, its FCS checked, the routing
-//!   table updated, and the frame re-encoded into the queue of every interface it goes to. A
-//!   frame that does not fit a queue is not queued at all and is counted in that interface's
+//!   table updated, and the frame re-encoded (escaped again; its checked FCS is kept, so no CRC
+//!   is computed) into the queue of every interface it goes to. A frame that does not fit a
+//!   queue is not queued at all and is counted in that interface's
 //!   [`IfaceStats::queue_overflows`]: nothing is dropped silently, nothing is sent half.
 //! - **Cut-through**: as soon as the receiver byte of a frame is in, the frame's bytes are
 //!   streamed to the outputs the table names, so each hop adds a few byte times instead of a
@@ -38,9 +39,10 @@
 //! ```
 
 use super::counters::TxCounters;
+use super::encode::{assemble, stuff_frame, stuffed_len};
 use super::parser::{Feed, Frame, Parser};
 use super::router::{Decision, Ports, Router};
-use super::{encode_with, encoded_len, EncodeError, Header, FLAG};
+use super::{storage_len, EncodeError, Header, FLAG, MAX_PAYLOAD_LEN};
 
 /// How frames from one interface are forwarded to another.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -171,20 +173,17 @@ impl<const Q: usize> Output<Q> {
         self.owner = None;
     }
 
-    /// Queues a whole frame, or counts an overflow.
-    fn enqueue(&mut self, header: &Header, parts: &[&[u8]], len: usize) {
+    /// Queues a whole unescaped frame (`len` bytes once escaped), or counts an overflow.
+    fn enqueue(&mut self, frame: &[u8], len: usize) {
         if self.queue.free() < len {
             self.stats.queue_overflows += 1;
             return;
         }
         let queue = &mut self.queue;
-        if encode_with(header, parts, |run| {
+        stuff_frame(frame, |run| {
             queue.push(run);
-        })
-        .is_ok()
-        {
-            self.stats.tx_frames += 1;
-        }
+        });
+        self.stats.tx_frames += 1;
     }
 }
 
@@ -193,10 +192,8 @@ struct Input<const P: usize> {
     parser: Parser<[u8; P]>,
     /// Time of the last byte, microseconds.
     last_us: u64,
-    /// The current frame's receiver is in and `plan` is made.
-    decided: bool,
-    /// Where the current frame goes in all.
-    plan: Decision,
+    /// Where the current frame goes in all, once its receiver byte is in.
+    plan: Option<Decision>,
     /// The outputs the current frame is streamed to.
     streams: Ports,
     /// Raw bytes of the current frame before the decision: at most an escaped receiver.
@@ -210,11 +207,7 @@ impl<const P: usize> Input<P> {
         Input {
             parser: Parser::new([0; P]),
             last_us: 0,
-            decided: false,
-            plan: Decision {
-                local: false,
-                forward: Ports::NONE,
-            },
+            plan: None,
             streams: Ports::NONE,
             prefix: [0; 2],
             prefix_len: 0,
@@ -223,7 +216,7 @@ impl<const P: usize> Input<P> {
     }
 
     fn reset_frame(&mut self) {
-        self.decided = false;
+        self.plan = None;
         self.streams = Ports::NONE;
         self.prefix_len = 0;
     }
@@ -251,20 +244,16 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Default
     }
 }
 
-/// Queues a frame on every output in `ports`.
-fn enqueue<const Q: usize>(
-    outputs: &mut [Output<Q>],
-    header: &Header,
-    parts: &[&[u8]],
-    ports: Ports,
-) {
+/// Queues an unescaped `header | payload | fcs` frame on every output in `ports`. A received
+/// frame keeps its checked FCS, so forwarding it computes no CRC.
+fn enqueue<const Q: usize>(outputs: &mut [Output<Q>], frame: &[u8], ports: Ports) {
     if ports.is_empty() {
         return;
     }
-    let len = encoded_len(header, parts);
+    let len = stuffed_len(frame);
     for o in ports.iter() {
         if let Some(out) = outputs.get_mut(o) {
-            out.enqueue(header, parts, len);
+            out.enqueue(frame, len);
         }
     }
 }
@@ -366,9 +355,15 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
     ) -> Result<Ports, EncodeError> {
         let len: usize = parts.iter().map(|p| p.len()).sum();
         let length = u8::try_from(len).map_err(|_| EncodeError::PayloadTooLong { len })?;
-        let header = self.counters.header(receiver, sender, length);
+        let mut frame = [0u8; storage_len(MAX_PAYLOAD_LEN)];
+        let n = assemble(
+            &Header::new(receiver, sender, self.counters.peek(receiver), length),
+            parts,
+            &mut frame,
+        )?;
+        self.counters.next(receiver);
         let ports = self.router.decide(usize::MAX, receiver).forward;
-        enqueue(&mut self.outputs, &header, parts, ports);
+        enqueue(&mut self.outputs, frame.get(..n).unwrap_or_default(), ports);
         Ok(ports)
     }
 
@@ -455,7 +450,7 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
                 if decision.local || deliver_all {
                     on_local(frame);
                 }
-                enqueue(outputs, &header, &[frame.payload()], decision.forward);
+                enqueue(outputs, frame.as_bytes(), decision.forward);
                 rest = remaining;
             }
             return;
@@ -506,11 +501,9 @@ fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
     let complete = match input.parser.feed(&[b]) {
         Feed::Frame { frame, .. } => {
             let header = frame.header();
-            let plan = if input.decided {
-                input.plan
-            } else {
-                router.decide(i, header.receiver)
-            };
+            let plan = input
+                .plan
+                .unwrap_or_else(|| router.decide(i, header.receiver));
             stream(outputs, &[b], true);
             if !plan.local {
                 router.learn(i, header.sender);
@@ -518,12 +511,7 @@ fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
             if plan.local || deliver_all {
                 on_local(frame);
             }
-            enqueue(
-                outputs,
-                &header,
-                &[frame.payload()],
-                plan.forward.without_all(streams),
-            );
+            enqueue(outputs, frame.as_bytes(), plan.forward.without_all(streams));
             true
         }
         Feed::Consumed => false,
@@ -536,7 +524,7 @@ fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
         // Dropped (FCS, escape, oversize): what was streamed passes, cut off.
         stream(outputs, &[b], true);
         input.reset_frame();
-    } else if input.decided {
+    } else if input.plan.is_some() {
         stream(outputs, &[b], false);
         for o in streams.iter() {
             if outputs.get(o).is_some_and(|out| out.owner != Some(i)) {
@@ -551,22 +539,19 @@ fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
         let Some(receiver) = input.parser.pending_receiver() else {
             return;
         };
-        input.decided = true;
-        input.plan = router.decide(i, receiver);
+        let plan = router.decide(i, receiver);
+        input.plan = Some(plan);
         let prefix = input.prefix.get(..input.prefix_len).unwrap_or_default();
-        for o in input
-            .plan
-            .forward
-            .iter()
-            .filter(|&o| cut_through.contains(o))
-        {
+        for o in plan.forward.iter().filter(|&o| cut_through.contains(o)) {
             let Some(out) = outputs.get_mut(o) else {
                 continue;
             };
             if out.streaming() || !out.queue.is_empty() {
                 continue; // busy: this output gets the frame store & forward
             }
-            if out.stream.push(&[FLAG]) && out.stream.push(prefix) {
+            if out.stream.free() > prefix.len() {
+                out.stream.push(&[FLAG]);
+                out.stream.push(prefix);
                 out.owner = Some(i);
                 out.stats.tx_frames += 1;
                 out.stats.cut_through += 1;

@@ -74,7 +74,9 @@ pub enum Observation {
     Untracked,
 }
 
-/// The expected next counter per (sender, receiver) pair.
+/// The expected next counter per (sender, receiver) pair: `2 * A * A` bytes (128 KiB for every
+/// address, so put it in a `Box` or a static on a PC; a node that only tracks a few addresses
+/// picks a small `A`).
 #[derive(Debug, Clone)]
 pub struct MissTracker<const A: usize = 256> {
     /// `expected[sender][receiver]`: the next counter, or `UNSEEN`.

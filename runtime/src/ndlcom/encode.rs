@@ -126,11 +126,86 @@ fn fcs(header: &[u8; 4], parts: &[&[u8]]) -> [u8; 2] {
     digest.finalize().to_le_bytes()
 }
 
-/// Exact encoded length of a frame with this header and payload parts, flags included.
-pub fn encoded_len(header: &Header, parts: &[&[u8]]) -> usize {
+/// A frame before escaping: header bytes, payload parts and FCS, computed once.
+struct Assembled<'p> {
+    head: [u8; 4],
+    parts: &'p [&'p [u8]],
+    fcs: [u8; 2],
+}
+
+impl<'p> Assembled<'p> {
+    #[inline]
+    fn new(header: &Header, parts: &'p [&'p [u8]]) -> Self {
+        let head = header.emit();
+        let fcs = fcs(&head, parts);
+        Assembled { head, parts, fcs }
+    }
+
+    /// Encoded length, flags included.
+    fn encoded_len(&self) -> usize {
+        2 + escaped_len(&self.head)
+            + self.parts.iter().map(|p| escaped_len(p)).sum::<usize>()
+            + escaped_len(&self.fcs)
+    }
+
+    #[inline]
+    fn emit(&self, emit: &mut impl FnMut(&[u8])) {
+        emit(&[FLAG]);
+        stuff(&self.head, emit);
+        for part in self.parts {
+            stuff(part, emit);
+        }
+        stuff(&self.fcs, emit);
+        emit(&[FLAG]);
+    }
+}
+
+/// Encoded length of an unescaped `header | payload | fcs` frame, flags included.
+pub(crate) fn stuffed_len(frame: &[u8]) -> usize {
+    2 + escaped_len(frame)
+}
+
+/// Escapes an unescaped `header | payload | fcs` frame between two flags: re-encoding a
+/// received frame needs no new FCS.
+pub(crate) fn stuff_frame(frame: &[u8], mut emit: impl FnMut(&[u8])) {
+    emit(&[FLAG]);
+    stuff(frame, &mut emit);
+    emit(&[FLAG]);
+}
+
+/// Writes the unescaped `header | payload | fcs` frame into `out` and returns its length.
+pub(crate) fn assemble(
+    header: &Header,
+    parts: &[&[u8]],
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    let len = check(header, parts)?;
+    let needed = super::storage_len(len);
+    if out.len() < needed {
+        return Err(EncodeError::BufferTooSmall {
+            needed,
+            available: out.len(),
+        });
+    }
     let head = header.emit();
     let fcs = fcs(&head, parts);
-    2 + escaped_len(&head) + parts.iter().map(|p| escaped_len(p)).sum::<usize>() + escaped_len(&fcs)
+    let mut pos = 0;
+    for part in [&head[..]]
+        .into_iter()
+        .chain(parts.iter().copied())
+        .chain([&fcs[..]])
+    {
+        if let Some(dst) = out.get_mut(pos..pos + part.len()) {
+            dst.copy_from_slice(part);
+        }
+        pos += part.len();
+    }
+    Ok(pos)
+}
+
+/// Exact encoded length of a frame with this header and payload parts, flags included.
+pub fn encoded_len(header: &Header, parts: &[&[u8]]) -> usize {
+    Assembled::new(header, parts).encoded_len()
 }
 
 /// Encodes a frame and hands its bytes to `emit`, in runs, flags included.
@@ -143,15 +218,7 @@ pub fn encode_with(
     mut emit: impl FnMut(&[u8]),
 ) -> Result<(), EncodeError> {
     check(header, parts)?;
-    let head = header.emit();
-    let fcs = fcs(&head, parts);
-    emit(&[FLAG]);
-    stuff(&head, &mut emit);
-    for part in parts {
-        stuff(part, &mut emit);
-    }
-    stuff(&fcs, &mut emit);
-    emit(&[FLAG]);
+    Assembled::new(header, parts).emit(&mut emit);
     Ok(())
 }
 
@@ -163,9 +230,10 @@ pub fn encode_parts(
     out: &mut [u8],
 ) -> Result<usize, EncodeError> {
     let len = check(header, parts)?;
+    let frame = Assembled::new(header, parts);
     // The worst case needs no counting; a tighter buffer is checked exactly.
     if out.len() < super::max_encoded_len(len) {
-        let needed = encoded_len(header, parts);
+        let needed = frame.encoded_len();
         if out.len() < needed {
             return Err(EncodeError::BufferTooSmall {
                 needed,
@@ -174,12 +242,12 @@ pub fn encode_parts(
         }
     }
     let mut pos = 0;
-    encode_with(header, parts, |run| {
+    frame.emit(&mut |run: &[u8]| {
         if let Some(dst) = out.get_mut(pos..pos + run.len()) {
             dst.copy_from_slice(run);
         }
         pos += run.len();
-    })?;
+    });
     Ok(pos)
 }
 
