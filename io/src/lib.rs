@@ -65,6 +65,7 @@ mod serial;
 mod tcp;
 mod udp;
 mod uri;
+pub mod tosnet;
 
 pub use uri::{
     Endpoint, Transport, UriError, DEFAULT_BAUD, DEFAULT_LISTEN_HOST, DEFAULT_TCP_PORT,

@@ -6,6 +6,7 @@
 //! |-----------|----------------|
 //! | `mavlink` | MAVLink v1/v2 frames, the backtracking stream parser, message signing |
 //! | `ndlcom`  | NDLCom frames, stream parser, packet counters, router and bridge |
+//! | `tosnet`  | TosNet shared-memory block, ring frames and the node engine |
 //! | `fast-crc` | a 16-bytes-per-step CRC table (8 KiB) instead of the 512-byte one; on by default |
 //! | `serde`   | serde support for generated types (pymavlink's `to_dict()` JSON form) |
 //! | `std`     | `std::error::Error` for the error types |
@@ -26,6 +27,8 @@ pub mod mavlink;
 pub mod ndlcom;
 #[cfg(feature = "serde")]
 pub mod serde_helpers;
+#[cfg(feature = "tosnet")]
+pub mod tosnet;
 pub mod wire;
 
 #[doc(hidden)]

@@ -1,0 +1,55 @@
+//! TosNet: a ring of nodes sharing one 4 KiB block of memory, refreshed every cycle.
+//!
+//! Each cycle the master sends its copy of the block's enabled registers round the ring in one
+//! DATA frame; every slave takes what it needs, writes its own out areas into the frame and
+//! passes it on; when the frame is back, the master has everyone's out areas and starts the next
+//! cycle. The pieces, all `no_std` and allocation-free:
+//!
+//! - [`block`]: the block, its word addressing and the typed write capabilities generated
+//!   register maps use ([`OutWriter`] for a node's own out areas, [`InWriter`] for the master);
+//! - [`frame`]: our frame format for software links, byte by byte;
+//! - [`node`]: the node engine: master election, ring and register discovery, sync delays,
+//!   DATA handling, the watchdog, double buffering, the side channel and the counters.
+//!
+//! CRC-8 with polynomial 0x65 (init 0, not reflected, no final xor) protects every frame.
+
+pub mod block;
+pub mod frame;
+pub mod node;
+
+pub use block::{Area, Block, InWriter, NodeId, OutWriter};
+pub use frame::{Command, FrameError, Repr};
+pub use node::{Config, Counters, Node, Phase, Role, Status};
+
+use ::crc::{Algorithm, Crc, Table};
+
+/// CRC-8 with polynomial 0x65 (x^8 + x^6 + x^5 + x^2 + 1), init 0, not reflected, no final xor.
+pub const CRC_8_TOSNET: Algorithm<u8> = Algorithm {
+    width: 8,
+    poly: 0x65,
+    init: 0x00,
+    refin: false,
+    refout: false,
+    xorout: 0x00,
+    check: 0xDF,
+    residue: 0x00,
+};
+
+const CRC8: Crc<u8, Table<1>> = Crc::<u8, Table<1>>::new(&CRC_8_TOSNET);
+
+/// TosNet's CRC-8 of `data`. `crc8(b"123456789") == 0xDF`; data followed by its CRC gives 0.
+pub fn crc8(data: &[u8]) -> u8 {
+    CRC8.checksum(data)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn check_value_and_residue() {
+        assert_eq!(crc8(b"123456789"), 0xDF);
+        assert_eq!(crc8(b"123456789\xDF"), 0);
+        assert_eq!(crc8(&[]), 0);
+    }
+}
