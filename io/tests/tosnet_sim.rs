@@ -198,3 +198,119 @@ fn roles_are_exclusive() {
     let roles: Vec<Role> = r.nodes.iter().map(|n| n.status().role).collect();
     assert_eq!(roles, [Role::Master, Role::Slave]);
 }
+
+struct Two;
+impl ferrolink_runtime::tosnet::NodeId for Two {
+    const ID: u8 = 2;
+    const NAME: &'static str = "two";
+    const OUT_MASK: u8 = 0b11;
+    const IN_MASK: u8 = 0b11;
+}
+
+/// Ring 1 (master), 2, 3 with registers 0 and 1 both ways.
+fn three() -> Ring {
+    let mut r = ring(&[1, 2, 3], 2, LinkModel::default());
+    r.run_until(10 * MS);
+    assert!(all_running(&r));
+    r
+}
+
+#[test]
+fn no_swap_without_a_commit() {
+    let mut r = three();
+    {
+        let master = &mut r.nodes[0];
+        let mut w = master.in_writer().expect("the master writes in areas");
+        w.area::<Two>(0).fill(7);
+        master.commit_in();
+    }
+    r.run_for(MS);
+    // The master's data reached node 2's network copy, but node 2 has not committed: its view
+    // stays as it was.
+    assert_eq!(r.nodes[1].view().in_area(2, 0), &[0; 16]);
+    assert_eq!(r.nodes[1].counters().swaps, 0);
+    // Node 3 has not committed either.
+    assert_eq!(r.nodes[2].view().in_area(2, 0), &[0; 16]);
+    // A commit (even with nothing written) swaps at the next strobe.
+    r.nodes[1].commit_out();
+    r.run_for(MS);
+    assert_eq!(r.nodes[1].view().in_area(2, 0), &[7; 16]);
+    assert_eq!(r.nodes[1].counters().swaps, 1);
+    // Slave writes: only its own out areas, and only once committed.
+    {
+        let node = &mut r.nodes[1];
+        node.out_writer::<Two>().expect("node 2 is Two").area(1).fill(9);
+        assert!(node.in_writer().is_none(), "a slave cannot write in areas");
+    }
+    assert!(
+        r.nodes[2].out_writer::<Two>().is_none(),
+        "node 3 cannot write node 2's out areas"
+    );
+    r.nodes[2].commit_out();
+    r.nodes[0].commit_in();
+    r.run_for(MS);
+    assert_eq!(r.nodes[2].view().out_area(2, 1), &[0; 16], "not committed yet");
+    r.nodes[1].commit_out();
+    r.run_for(MS);
+    r.nodes[2].commit_out();
+    r.nodes[0].commit_in();
+    r.run_for(MS);
+    assert_eq!(r.nodes[2].view().out_area(2, 1), &[9; 16]);
+    assert_eq!(r.nodes[0].view().out_area(2, 1), &[9; 16]);
+}
+
+#[test]
+fn reads_never_tear_and_errored_cycles_do_not_swap() {
+    let mut r = three();
+    let mut value = 0u8;
+    let mut corrupted = 0;
+    for step in 0..400u32 {
+        // The master writes one consistent record over two registers and commits it.
+        {
+            let master = &mut r.nodes[0];
+            value = value.wrapping_add(1);
+            let mut w = master.in_writer().expect("master");
+            w.area::<Two>(0).fill(value);
+            w.area::<Two>(1).fill(value);
+            master.commit_in();
+        }
+        r.nodes[2].commit_out();
+        if step % 50 == 25 {
+            r.corrupt_data_from(1, 1);
+            corrupted += 1;
+        }
+        r.run_for(37_000);
+        let view = r.nodes[2].view();
+        let a = view.in_area(2, 0);
+        let b = view.in_area(2, 1);
+        assert!(a.iter().chain(b).all(|&x| x == a[0]), "torn: {a:?} {b:?}");
+    }
+    let node = &r.nodes[2];
+    assert_eq!(node.counters().errors, corrupted);
+    assert!(node.counters().swaps > 0);
+    assert!(
+        node.counters().swaps <= node.counters().syncs - corrupted,
+        "a cycle with an error never swaps"
+    );
+}
+
+#[test]
+fn the_side_channel_reaches_one_node_or_everyone() {
+    let mut r = three();
+    r.nodes[1].send_async(3, b"to three").expect("queued");
+    assert_eq!(
+        r.nodes[1].send_async(3, b"again"),
+        Err(ferrolink_runtime::tosnet::node::AsyncError::Busy)
+    );
+    r.run_for(MS);
+    let got = r.nodes[2].take_async().expect("delivered");
+    assert_eq!((got.source, got.dest, got.data()), (2, 3, &b"to three"[..]));
+    assert!(r.nodes[0].take_async().is_none(), "not for the master");
+    r.nodes[2].send_async(0, b"all").expect("queued");
+    r.run_for(MS);
+    for i in [0, 1] {
+        assert_eq!(r.nodes[i].take_async().expect("broadcast").data(), b"all");
+    }
+    assert!(r.nodes[2].take_async().is_none(), "the sender drops its own");
+    assert!(all_running(&r), "the cycle is not disturbed");
+}
