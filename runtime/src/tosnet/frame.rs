@@ -15,7 +15,7 @@
 //! | 0x5  | NET_SET    | master id      | as NET_DSC, complete |
 //! | 0x6  | REG_DSC    | master id      | count, then per position: in mask, out mask |
 //! | 0x7  | REG_SET    | master id      | as REG_DSC, complete |
-//! | 0x8  | SYNC_DSC   | master id      | padding, as long as a DATA frame's body |
+//! | 0x8  | SYNC_DSC   | master id      | zeros, as many as a DATA frame's body has |
 //! | 0x9  | SYNC_SET   | master id      | node-to-node delay in ns (u32, little-endian) |
 //! | 0xA  | DATA       | master id      | cycle (u16 LE), then per position in ring order, per enabled register ascending: out area (16 bytes), in area (16 bytes) |
 //! | 0xC  | ASYNC      | destination (0 = everyone) | source id, then 0..=64 data bytes |
@@ -101,6 +101,8 @@ pub enum FrameError {
     BadLength,
     /// The CRC does not match (or was inverted by an upstream node).
     Crc,
+    /// SYNC_DSC padding that is not zero.
+    Padding,
     /// The output buffer is too small.
     BufferTooSmall,
 }
@@ -112,6 +114,7 @@ impl core::fmt::Display for FrameError {
             FrameError::UnknownCommand(c) => write!(f, "unknown command code {c:#x}"),
             FrameError::BadLength => f.write_str("body length does not match the command"),
             FrameError::Crc => f.write_str("CRC mismatch"),
+            FrameError::Padding => f.write_str("SYNC_DSC padding is not zero"),
             FrameError::BufferTooSmall => f.write_str("output buffer too small"),
         }
     }
@@ -269,10 +272,15 @@ impl<'a> Repr<'a> {
                 complete: command == Command::RegSet,
                 masks: counted(2)?,
             },
-            Command::SyncDsc => Repr::SyncDsc {
-                master: arg,
-                len: body.len(),
-            },
+            Command::SyncDsc => {
+                if body.iter().any(|&b| b != 0) {
+                    return Err(FrameError::Padding);
+                }
+                Repr::SyncDsc {
+                    master: arg,
+                    len: body.len(),
+                }
+            }
             Command::SyncSet => {
                 exact(4)?;
                 Repr::SyncSet {

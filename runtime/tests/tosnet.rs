@@ -1,0 +1,79 @@
+//! TosNet frames and the node engine: property round trips and the fuzz invariants on random
+//! input.
+
+#[path = "scripts/tosnet.rs"]
+mod scripts;
+
+use ferrolink_runtime::tosnet::frame::{data_len, Repr};
+use ferrolink_runtime::tosnet::{crc8, Config, Node, Phase, Role};
+use proptest::prelude::*;
+
+fn repr_strategy() -> impl Strategy<Value = (u8, u8, u8, Vec<u8>)> {
+    (0u8..12, 0u8..16, any::<u8>(), prop::collection::vec(any::<u8>(), 0..64))
+}
+
+proptest! {
+    #[test]
+    fn frames_round_trip((kind, arg, byte, bytes) in repr_strategy()) {
+        let areas: Vec<u8> = bytes.iter().copied().cycle().take(bytes.len() / 32 * 32).collect();
+        let ids: Vec<u8> = bytes.iter().take(15).copied().collect();
+        let masks: Vec<u8> = bytes.iter().take(30 & !1).copied().collect();
+        let masks = &masks[..masks.len() & !1];
+        let data = &bytes[..bytes.len().min(64)];
+        let repr = match kind {
+            0 => Repr::Idle { sender: arg },
+            1 => Repr::MasterDsc { candidate: arg, hops: byte },
+            2 => Repr::MasterSet { master: arg },
+            3 => Repr::Net { master: arg, complete: byte & 1 == 1, ids: &ids },
+            4 => Repr::Reg { master: arg, complete: byte & 1 == 1, masks },
+            5 => Repr::SyncDsc { master: arg, len: bytes.len() },
+            6 => Repr::SyncSet { master: arg, delay_ns: u32::from(byte) * 1000 },
+            7 => Repr::Data { master: arg, cycle: u16::from(byte) << 3, areas: &areas },
+            8 => Repr::Async { dest: arg, source: byte, data },
+            _ => Repr::Halt { master: arg },
+        };
+        let mut buf = vec![0xa5; repr.buffer_len() + 1];
+        let len = repr.emit(&mut buf).expect("sized");
+        prop_assert_eq!(Repr::parse(&buf[..len]), Ok(repr));
+        prop_assert_eq!(crc8(&buf[..len]), 0, "residue 0");
+        prop_assert_eq!(buf[len], 0xa5);
+        scripts::check_frame(&buf[..len]);
+    }
+
+    #[test]
+    fn any_bytes_as_a_frame(bytes in prop::collection::vec(any::<u8>(), 0..300)) {
+        scripts::check_frame(&bytes);
+    }
+
+    #[test]
+    fn any_script_for_a_node(script in prop::collection::vec(any::<u8>(), 0..600)) {
+        scripts::check_node(&script);
+    }
+}
+
+#[test]
+fn crc_check_value_and_residue() {
+    assert_eq!(crc8(b"123456789"), 0xDF);
+    assert_eq!(crc8(b"123456789\xDF"), 0);
+}
+
+/// One node alone is a ring of one: its frames come straight back.
+#[test]
+fn a_ring_of_one_sets_itself_up() {
+    let mut node = Node::new(Config::new(4).registers(0b1, 0b1));
+    let mut buf = [0u8; 64];
+    let mut frame = Vec::new();
+    let mut now = 0;
+    let mut len = node.poll(now, &mut buf);
+    for _ in 0..20 {
+        let Some(n) = len else { break };
+        frame.clear();
+        frame.extend_from_slice(&buf[..n]);
+        now += 1000;
+        len = node.receive(&frame, now, &mut buf);
+    }
+    let s = node.status();
+    assert_eq!((s.role, s.phase, s.nodes, s.registers), (Role::Master, Phase::Running, 1, 1));
+    assert_eq!(len, Some(data_len(1)));
+    assert_eq!(s.delay_ns, 1000, "one hop per round trip");
+}
