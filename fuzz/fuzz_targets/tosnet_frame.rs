@@ -1,4 +1,4 @@
-//! Arbitrary input for the TosNet frame parser (any bytes as one frame); listed in
+//! Arbitrary input for the TosNet frame parser (any bytes as one frame); the invariants are
 //! `runtime/tests/scripts/tosnet.rs`, which the property tests run too.
 //!
 //! Run with `cargo fuzz run tosnet_frame`.
