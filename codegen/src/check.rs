@@ -1,5 +1,8 @@
-//! Checks on the lowered IR: everything mavgen rejects, and the name collisions that only a Rust
-//! backend can hit. Every problem is reported; nothing stops at the first.
+//! Checks on the lowered IR: everything mavgen rejects, the TosNet limits ([`tosnet`]), and the
+//! name collisions that only a Rust backend can hit. Every problem is reported; nothing stops at
+//! the first.
+
+pub mod tosnet;
 
 use std::collections::{HashMap, HashSet};
 
@@ -75,6 +78,7 @@ pub fn check(ir: &Ir, diags: &mut Diagnostics) {
         check_item_names(ir, module, diags);
     }
     check_closures(ir, diags);
+    tosnet::check(&ir.rings, diags);
     for e in &ir.enums {
         let mut names: HashMap<&str, &Option<Span>> = HashMap::new();
         let mut values: HashMap<u64, (&str, &Option<Span>)> = HashMap::new();
@@ -127,7 +131,7 @@ pub fn check(ir: &Ir, diags: &mut Diagnostics) {
     }
 }
 
-fn report_dup(
+pub(crate) fn report_dup(
     diags: &mut Diagnostics,
     code: Code,
     span: Option<Span>,
@@ -252,7 +256,7 @@ fn check_item_names(ir: &Ir, module: &crate::ir::Module, diags: &mut Diagnostics
 }
 
 /// Message ids and names must be unique in every dialect with its includes. Each clash is
-/// reported once, at the later definition.
+/// reported once, at the later definition. No two files of a run may become the same module.
 fn check_closures(ir: &Ir, diags: &mut Diagnostics) {
     let mut reported: HashSet<(u32, String)> = HashSet::new();
     for module in &ir.modules {
@@ -293,15 +297,20 @@ fn check_closures(ir: &Ir, diags: &mut Diagnostics) {
         }
     }
     let mut modules: HashMap<&str, &str> = HashMap::new();
-    for module in &ir.modules {
-        if let Some(other) = modules.insert(&module.name.rust, &module.path) {
-            if let Some(span) = &module.span {
+    let files = ir
+        .modules
+        .iter()
+        .map(|m| (&m.name, &m.path, &m.span))
+        .chain(ir.rings.iter().map(|r| (&r.name, &r.path, &r.span)));
+    for (name, path, span) in files {
+        if let Some(other) = modules.insert(&name.rust, path) {
+            if let Some(span) = span {
                 diags.report(
                     Code::NameCollision,
                     span.clone(),
                     format!(
-                        "files `{}` and `{other}` both become module `{}`",
-                        module.path, module.name.rust
+                        "files `{path}` and `{other}` both become module `{}`",
+                        name.rust
                     ),
                     "this file",
                 );

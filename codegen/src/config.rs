@@ -6,6 +6,7 @@ use proc_macro2::TokenStream;
 use quote::quote;
 
 use crate::backend::rust::{self, SerdeMode};
+use crate::backend::tosnet;
 use crate::diag::Failed;
 use crate::format;
 use crate::write::{self, GeneratedFile};
@@ -59,10 +60,14 @@ impl Config {
         Self::default()
     }
 
-    /// Adds a dictionary file. Its includes are read too.
+    /// Adds a dictionary file: a MAVLink XML dialect (its includes are read too) or, ending in
+    /// `.toml`, a TosNet register map.
     ///
     /// ```
-    /// ferrolink_codegen::Config::new().input("common.xml").input("my_dialect.xml");
+    /// ferrolink_codegen::Config::new()
+    ///     .input("common.xml")
+    ///     .input("my_dialect.xml")
+    ///     .input("my_ring.toml");
     /// ```
     pub fn input(&mut self, path: impl AsRef<Path>) -> &mut Self {
         self.inputs.push(path.as_ref().to_path_buf());
@@ -138,7 +143,8 @@ impl Config {
     fn render(&self, layout: Layout) -> Result<Generated, Failed> {
         let checked = self.run()?;
         let header = format::header(&self.inputs_label());
-        let modules = rust::emit(&checked.ir, &self.serde);
+        let mut modules = rust::emit(&checked.ir, &self.serde);
+        modules.extend(tosnet::emit(&checked.ir));
         let files = match layout {
             Layout::Single => {
                 let mods = modules

@@ -131,16 +131,20 @@ codes! {
     /// The file could not be read.
     Io = "E0001", Error, "check the path and permissions";
     /// The XML or TOML is not well-formed.
-    Syntax = "E0002", Error, "fix the syntax at the marked position; nothing after it was read";
+    Syntax = "E0002", Error, "fix the syntax at the marked position; nothing else in the file is checked until it parses";
+    /// A TOML file whose top-level table names no kind of dictionary the generator reads.
+    UnknownKind = "E0003", Error, "a TOML dictionary names its kind in a top-level table: `[ring]` for a TosNet register map";
     /// An element the dialect format does not have.
     UnknownElement = "W0101", Warning, "mavgen ignores it too; check the spelling";
     /// An attribute the element does not have.
     UnknownAttribute = "W0102", Warning, "mavgen ignores it too; check the spelling";
-    /// A required attribute or element is missing.
+    /// A key the TOML format does not have.
+    UnknownKey = "W0103", Warning, "it is ignored; check the spelling against the format in the README";
+    /// A required attribute, element or key is missing.
     Missing = "E0103", Error, "add it; see the dialect format in the README";
-    /// A number that does not parse or is out of range.
-    BadNumber = "E0104", Error, "write a decimal, 0x.., 0b.. or 2**n value in range";
-    /// A field type that is not a MAVLink type.
+    /// A value of the wrong type, or a number that does not parse or is out of range.
+    BadNumber = "E0104", Error, "write a value of the type it takes; numbers in range, as decimal, 0x.. or 0b.. (or 2**n in XML)";
+    /// A field type that is not one of the MAVLink types.
     UnknownType = "E0105", Error, "use one of int8_t..uint64_t, float, double, char, each optionally with [N]";
     /// An array length of 0 or over 255, or a malformed one.
     BadArrayLength = "E0106", Error, "array lengths are 1..=255, written as type[N]";
@@ -176,6 +180,30 @@ codes! {
     CarrierIdTooLarge = "E0311", Error, "NDLCom names a payload's message in one byte: give the message an id below 256, or do not send it over NDLCom";
     /// A message that, with the carrier's own bytes, exceeds the carrier's payload.
     CarrierPayloadTooLong = "E0312", Error, "NDLCom payloads are at most 255 bytes including the id byte: shorten the message to 254 bytes";
+    /// A TosNet area field that ends past the 16-byte area.
+    AreaTooLong = "E0401", Error, "a TosNet area holds 16 bytes: shorten or move the fields, or spread them over two registers";
+    /// A TosNet node id over 15.
+    NodeIdOutOfRange = "E0402", Error, "TosNet node ids are 0..=15";
+    /// Two nodes of a ring with the same id.
+    DuplicateNodeId = "E0403", Error, "give every node of the ring its own id";
+    /// More than 15 nodes in a ring.
+    TooManyNodes = "E0404", Error, "a TosNet ring has at most 15 nodes";
+    /// Two fields of an area that share bytes.
+    OverlappingFields = "E0405", Error, "give the fields offsets that do not overlap, or leave `offset` out to place a field right after the previous one";
+    /// More than 8 registers on a node.
+    TooManyRegisters = "E0406", Error, "a TosNet node has at most 8 registers";
+    /// A register index over 7.
+    RegisterIndexOutOfRange = "E0407", Error, "TosNet register indices are 0..=7";
+    /// Two registers of a node with the same index.
+    DuplicateRegisterIndex = "E0408", Error, "give every register of the node its own index";
+    /// Two fields of an area with the same name.
+    DuplicateAreaField = "E0409", Error, "rename one of the fields";
+    /// Two nodes of a ring with the same name.
+    DuplicateNodeName = "E0410", Error, "give every node of the ring its own name";
+    /// Two registers of a node with the same name.
+    DuplicateRegisterName = "E0411", Error, "give every register of the node its own name";
+    /// A register names an area that is not defined.
+    UnknownArea = "E0412", Error, "define the area as `[areas.NAME]`, fix the name, or write the area inline as `{ fields = [...] }`";
 }
 
 /// One problem.

@@ -57,6 +57,27 @@ pub fn value_name(wire: &str) -> String {
     escape(wire.to_snake_case(), "f_")
 }
 
+/// A constant name: `motor1` -> `MOTOR1`, `gripperState` -> `GRIPPER_STATE`.
+pub fn const_name(wire: &str) -> String {
+    escape(wire.to_shouty_snake_case(), "C_")
+}
+
+/// The accessor and the setter of one area of a TosNet register: `motor1`, `out` ->
+/// (`motor1_out`, `set_motor1_out`).
+pub fn register_fns(register_wire: &str, area: &str) -> (String, String) {
+    (
+        value_name(&format!("{register_wire}_{area}")),
+        value_name(&format!("set_{register_wire}_{area}")),
+    )
+}
+
+/// Whether a dictionary name is usable at all: ASCII letters, digits and `_`, not starting with a
+/// digit.
+pub fn is_identifier(name: &str) -> bool {
+    name.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_')
+        && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
 /// The part of an entry name after its enum's prefix (`MAV_TYPE_GENERIC` -> `GENERIC`), or the
 /// whole name. A rest that starts with a digit keeps the prefix's last word
 /// (`GPS_FIX_TYPE_2D_FIX` -> `TYPE_2D_FIX`).
@@ -129,5 +150,13 @@ mod tests {
             variant_name("FENCE_MITIGATE", "FENCE_MITIGATE_UNKNOWN"),
             "Unknown_"
         );
+        assert_eq!(const_name("motor1"), "MOTOR1");
+        assert_eq!(const_name("gripperState"), "GRIPPER_STATE");
+        assert_eq!(
+            register_fns("gripperState", "in"),
+            ("gripper_state_in".into(), "set_gripper_state_in".into())
+        );
+        assert!(is_identifier("_a1") && is_identifier("motor_1"));
+        assert!(!is_identifier("1a") && !is_identifier("a-b") && !is_identifier(""));
     }
 }

@@ -1,9 +1,10 @@
-//! Ferrolink's generator: MAVLink XML dialects to Rust bindings for `ferrolink-runtime`.
+//! Ferrolink's generator: MAVLink XML dialects and TosNet register maps (TOML) to Rust bindings
+//! for `ferrolink-runtime`.
 //!
 //! The pipeline, one module per stage:
 //!
 //! ```text
-//! frontend (parse, with spans) -> lower (IR: wire order, lengths, CRC_EXTRA)
+//! frontend (parse, with spans) -> lower (IR: wire order, lengths, CRC_EXTRA, area offsets)
 //!   -> check (diagnostics) -> backend (quote!) -> format (prettyplease) -> write (if changed)
 //! ```
 //!
@@ -52,7 +53,8 @@ pub struct Checked {
     pub warnings: Vec<Diagnostic>,
 }
 
-/// Parses, lowers and checks `inputs`. Every problem is reported in one go.
+/// Parses, lowers and checks `inputs`: `.toml` files as TOML dictionaries (a `[ring]` table
+/// makes a TosNet register map), all others as MAVLink XML. Every problem is reported in one go.
 pub fn load(inputs: &[PathBuf]) -> Result<Checked, Failed> {
     load_for(inputs, &[])
 }
@@ -60,9 +62,10 @@ pub fn load(inputs: &[PathBuf]) -> Result<Checked, Failed> {
 /// Like [`load`], and also checks that every message fits each of `carriers`.
 pub fn load_for(inputs: &[PathBuf], carriers: &[check::Carrier]) -> Result<Checked, Failed> {
     let mut diags = diag::Diagnostics::default();
-    let loaded = frontend::mavlink::load(inputs, &mut diags);
+    let loaded = frontend::load(inputs, &mut diags);
     let read = loaded.paths().map(PathBuf::from).collect();
-    let ir = lower::lower(loaded);
+    let mut ir = lower::lower(loaded.mavlink);
+    ir.rings = lower::tosnet::lower(loaded.rings, &mut diags);
     check::check(&ir, &mut diags);
     for &carrier in carriers {
         check::check_carrier(&ir, carrier, &mut diags);

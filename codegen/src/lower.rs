@@ -4,7 +4,10 @@
 //! - enums merged by name across files (as mavgen does), entries sorted by value;
 //! - per message: wire order (base fields stably sorted by element size, largest first, then
 //!   extensions in XML order), offsets, `MIN_LEN`/`MAX_LEN`, CRC_EXTRA and target offsets;
-//! - per enum: the integer type that holds every value and every field that uses it.
+//! - per enum: the integer type that holds every value and every field that uses it;
+//! - TosNet register maps in [`tosnet`]: area names resolved, offsets and lengths.
+
+pub mod tosnet;
 
 use std::collections::HashMap;
 
@@ -12,7 +15,8 @@ use crate::frontend::mavlink::Loaded;
 use crate::ident;
 use crate::ir::{Enum, Ir, Message, Module, Name, Primitive};
 
-/// Builds the IR. Problems are left to [`crate::check`]; lowering never fails.
+/// Builds the IR of the MAVLink dialects (rings are added by [`tosnet::lower`]). Problems are
+/// left to [`crate::check`]; lowering never fails.
 pub fn lower(loaded: Loaded) -> Ir {
     let mut ir = Ir::default();
     let mut enum_index: HashMap<String, usize> = HashMap::new();

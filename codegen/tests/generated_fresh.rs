@@ -9,39 +9,59 @@ fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-#[test]
-fn generated_bindings_are_fresh() {
-    let root = workspace();
-    std::env::set_current_dir(&root).expect("workspace dir");
-    let mut inputs: Vec<PathBuf> = std::fs::read_dir("definitions/mavlink")
+/// The files with extension `ext` in `dir`, sorted.
+fn inputs(dir: &str, ext: &str) -> Vec<PathBuf> {
+    let mut inputs: Vec<PathBuf> = std::fs::read_dir(dir)
         .expect("definitions")
         .filter_map(Result::ok)
         .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|e| e == "xml"))
+        .filter(|p| p.extension().is_some_and(|e| e == ext))
         .collect();
     inputs.sort();
-    let mut config = Config::new();
-    for i in &inputs {
+    inputs
+}
+
+/// Checks (and outside CI rewrites) one output directory; returns its stale files.
+fn check(config: &mut Config, inputs: &[PathBuf], out: &str) -> Vec<String> {
+    for i in inputs {
         config.input(i);
     }
-    let generated = config
-        .serde(SerdeMode::Feature("serde".into()))
-        .generate_modules()
-        .unwrap_or_else(|e| panic!("{e}"));
-    let out = Path::new("generated/src/mavlink");
-    let stale = ferrolink_codegen::write::stale(out, &generated.files);
+    let generated = config.generate_modules().unwrap_or_else(|e| panic!("{e}"));
+    let out = Path::new(out);
+    let stale: Vec<String> = ferrolink_codegen::write::stale(out, &generated.files)
+        .into_iter()
+        .map(|name| format!("{}/{name}", out.display()))
+        .collect();
+    if !stale.is_empty() && std::env::var_os("CI").is_none() {
+        ferrolink_codegen::write::write_all(out, &generated.files).expect("rewrite");
+    }
+    stale
+}
+
+#[test]
+fn generated_bindings_are_fresh() {
+    std::env::set_current_dir(workspace()).expect("workspace dir");
+    let mut stale = check(
+        Config::new().serde(SerdeMode::Feature("serde".into())),
+        &inputs("definitions/mavlink", "xml"),
+        "generated/src/mavlink",
+    );
+    stale.extend(check(
+        &mut Config::new(),
+        &inputs("definitions/tosnet", "toml"),
+        "generated/src/tosnet",
+    ));
     if stale.is_empty() {
         return;
     }
     if std::env::var_os("CI").is_none() {
-        ferrolink_codegen::write::write_all(out, &generated.files).expect("rewrite");
         panic!(
             "generated/ was stale ({}); it has been regenerated, please commit it",
             stale.join(", ")
         );
     }
     panic!(
-        "generated/ is stale ({}); run: cargo run -p ferrolink-codegen --features cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde",
+        "generated/ is stale ({}); run:\n  cargo run -p ferrolink-codegen --features cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde\n  cargo run -p ferrolink-codegen --features cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet",
         stale.join(", ")
     );
 }

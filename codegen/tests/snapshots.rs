@@ -19,7 +19,7 @@ fn in_crate_dir() {
 #[test]
 fn generated_code_and_ir() {
     in_crate_dir();
-    insta::glob!("fixtures/ok/*.xml", |path| {
+    insta::glob!("fixtures/ok/*.{xml,toml}", |path| {
         let path = rel(path);
         let generated = Config::new()
             .input(&path)
@@ -54,7 +54,7 @@ fn diagnostics_for(path: &Path) -> String {
 #[test]
 fn diagnostics() {
     in_crate_dir();
-    insta::glob!("fixtures/bad/*.xml", |path| {
+    insta::glob!("fixtures/bad/*.{xml,toml}", |path| {
         insta::assert_snapshot!(diagnostics_for(&rel(path)));
     });
 }
@@ -93,6 +93,40 @@ fn every_code_has_a_fixture() {
             fixture.display()
         );
     }
+}
+
+/// One run reports every problem of a file, not just the first.
+#[test]
+fn all_errors_in_one_run_toml() {
+    in_crate_dir();
+    let out = diagnostics_for(Path::new("tests/fixtures/bad/many_errors.toml"));
+    for code in [
+        "W0103", "E0105", "E0401", "E0402", "E0403", "E0405", "E0407", "E0408", "E0410", "E0412",
+    ] {
+        assert!(
+            out.contains(&format!("[{code}]")),
+            "missing {code} in:\n{out}"
+        );
+    }
+}
+
+/// MAVLink dialects and TosNet register maps in one run: one module each.
+#[test]
+fn mixed_inputs() {
+    in_crate_dir();
+    let generated = Config::new()
+        .input("tests/fixtures/ok/arrays.xml")
+        .input("tests/fixtures/ok/tosnet_named.toml")
+        .generate_modules()
+        .unwrap_or_else(|e| panic!("{e}"));
+    let names: Vec<&str> = generated.files.iter().map(|f| f.name.as_str()).collect();
+    assert_eq!(names, ["mod.rs", "arrays.rs", "tosnet_named.rs"]);
+    assert_eq!(generated.read.len(), 2);
+    let single = Config::new()
+        .input("tests/fixtures/ok/tosnet_named.toml")
+        .generate()
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(single.files[0].content.contains("pub mod tosnet_named {"));
 }
 
 /// One run reports every problem of a file, not just the first.

@@ -63,9 +63,9 @@ use std::time::Duration;
 pub mod bridge;
 mod serial;
 mod tcp;
+pub mod tosnet;
 mod udp;
 mod uri;
-pub mod tosnet;
 
 pub use uri::{
     Endpoint, Transport, UriError, DEFAULT_BAUD, DEFAULT_LISTEN_HOST, DEFAULT_TCP_PORT,

@@ -27,7 +27,9 @@ fn ring_with(ids: &[u8], regs: &[u8], model: LinkModel) -> Ring {
 }
 
 fn all_running(ring: &Ring) -> bool {
-    ring.nodes.iter().all(|n| n.status().phase == Phase::Running)
+    ring.nodes
+        .iter()
+        .all(|n| n.status().phase == Phase::Running)
 }
 
 /// Cycles per second at the master, from its strobes over at least `window` ns of running.
@@ -35,7 +37,10 @@ fn measured_rate(ring: &mut Ring, window: u64) -> f64 {
     let m = ring.master().expect("a master");
     let strobe = |r: &Ring| {
         let n = &r.nodes[m];
-        (n.counters().syncs, n.status().last_sync_ns.expect("running"))
+        (
+            n.counters().syncs,
+            n.status().last_sync_ns.expect("running"),
+        )
     };
     let (c0, t0) = strobe(ring);
     ring.run_for(window);
@@ -141,7 +146,10 @@ fn a_node_leaving_and_joining_is_picked_up_by_the_watchdog() {
     let live = [0usize, 1, 3];
     for &i in &live {
         assert_ne!(r.nodes[i].status().phase, Phase::Running, "node {i}");
-        assert!(r.nodes[i].counters().resets >= 2, "the watchdog keeps trying");
+        assert!(
+            r.nodes[i].counters().resets >= 2,
+            "the watchdog keeps trying"
+        );
     }
     // Its upstream neighbour is replugged to its downstream one: three nodes run.
     r.link(1, 3);
@@ -183,7 +191,10 @@ fn a_corrupted_frame_is_rejected_downstream_and_the_cycle_goes_on() {
     r.run_for(5 * MS);
     let errors: Vec<u32> = r.nodes.iter().map(|n| n.counters().errors).collect();
     assert_eq!(errors, [1, 0, 1, 1]);
-    assert!(r.nodes[0].counters().cycles > cycles + 10, "the cycle goes on");
+    assert!(
+        r.nodes[0].counters().cycles > cycles + 10,
+        "the cycle goes on"
+    );
     assert!(all_running(&r));
     assert!(r.nodes.iter().all(|n| n.counters().resets == 0));
 }
@@ -239,7 +250,10 @@ fn no_swap_without_a_commit() {
     // Slave writes: only its own out areas, and only once committed.
     {
         let node = &mut r.nodes[1];
-        node.out_writer::<Two>().expect("node 2 is Two").area(1).fill(9);
+        node.out_writer::<Two>()
+            .expect("node 2 is Two")
+            .area(1)
+            .fill(9);
         assert!(node.in_writer().is_none(), "a slave cannot write in areas");
     }
     assert!(
@@ -249,7 +263,11 @@ fn no_swap_without_a_commit() {
     r.nodes[2].commit_out();
     r.nodes[0].commit_in();
     r.run_for(MS);
-    assert_eq!(r.nodes[2].view().out_area(2, 1), &[0; 16], "not committed yet");
+    assert_eq!(
+        r.nodes[2].view().out_area(2, 1),
+        &[0; 16],
+        "not committed yet"
+    );
     r.nodes[1].commit_out();
     r.run_for(MS);
     r.nodes[2].commit_out();
@@ -311,6 +329,9 @@ fn the_side_channel_reaches_one_node_or_everyone() {
     for i in [0, 1] {
         assert_eq!(r.nodes[i].take_async().expect("broadcast").data(), b"all");
     }
-    assert!(r.nodes[2].take_async().is_none(), "the sender drops its own");
+    assert!(
+        r.nodes[2].take_async().is_none(),
+        "the sender drops its own"
+    );
     assert!(all_running(&r), "the cycle is not disturbed");
 }

@@ -9,7 +9,12 @@ use ferrolink_runtime::tosnet::{crc8, Config, Node, Phase, Role};
 use proptest::prelude::*;
 
 fn repr_strategy() -> impl Strategy<Value = (u8, u8, u8, Vec<u8>)> {
-    (0u8..12, 0u8..16, any::<u8>(), prop::collection::vec(any::<u8>(), 0..64))
+    (
+        0u8..12,
+        0u8..16,
+        any::<u8>(),
+        prop::collection::vec(any::<u8>(), 0..64),
+    )
 }
 
 proptest! {
@@ -73,7 +78,10 @@ fn a_ring_of_one_sets_itself_up() {
         len = node.receive(&frame, now, &mut buf);
     }
     let s = node.status();
-    assert_eq!((s.role, s.phase, s.nodes, s.registers), (Role::Master, Phase::Running, 1, 1));
+    assert_eq!(
+        (s.role, s.phase, s.nodes, s.registers),
+        (Role::Master, Phase::Running, 1, 1)
+    );
     assert_eq!(len, Some(data_len(1)));
     assert_eq!(s.delay_ns, 1000, "one hop per round trip");
 }

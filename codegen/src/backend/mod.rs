@@ -1,3 +1,4 @@
-//! Backends: IR to source text.
+//! Backends: IR to source text, one module per format.
 
 pub mod rust;
+pub mod tosnet;

@@ -18,7 +18,7 @@ pub fn ident(name: &str) -> Ident {
 }
 
 /// Doc attributes from free text, wrapped at about 100 columns.
-fn docs(text: &str) -> TokenStream {
+pub(crate) fn docs(text: &str) -> TokenStream {
     let mut lines = Vec::new();
     for para in text.split("\n\n") {
         let mut line = String::new();
@@ -64,7 +64,8 @@ fn deprecated(d: &Option<Deprecation>) -> TokenStream {
     }
 }
 
-fn primitive(p: Primitive) -> TokenStream {
+/// The Rust type of a scalar (`char` is a byte).
+pub(crate) fn primitive(p: Primitive) -> TokenStream {
     match p {
         Primitive::U8 | Primitive::Char => quote!(u8),
         Primitive::I8 => quote!(i8),
@@ -79,7 +80,8 @@ fn primitive(p: Primitive) -> TokenStream {
     }
 }
 
-fn lit(v: usize) -> Literal {
+/// An unsuffixed `usize` literal.
+pub(crate) fn lit(v: usize) -> Literal {
     Literal::usize_unsuffixed(v)
 }
 
@@ -179,7 +181,7 @@ fn emit_module(ctx: &Ctx<'_>) -> TokenStream {
 }
 
 /// Turns outer doc attributes (`#[doc]`) into inner ones (`#![doc]`).
-fn inner(outer: TokenStream) -> TokenStream {
+pub(crate) fn inner(outer: TokenStream) -> TokenStream {
     let mut out = TokenStream::new();
     for tt in outer {
         if let proc_macro2::TokenTree::Punct(p) = &tt {

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use super::xml::{self, Attr, Element};
+use super::TypeSyntax;
 use crate::diag::{Code, Diagnostics, SourceFile, Span};
 use crate::ident;
 use crate::ir::{Deprecation, Entry, Enum, Field, FieldType, Message, Name, Param, Primitive};
@@ -95,22 +96,16 @@ impl Loader {
             Ok(t) => t,
             Err(e) => {
                 match from {
-                    Some(span) => diags.report(
-                        Code::IncludeNotFound,
-                        span.clone(),
-                        format!("cannot read included file {}: {e}", path.display()),
-                        "included here",
-                    ),
-                    None => {
-                        let file = SourceFile::new(path, String::new());
+                    Some(span) => {
                         diags.report(
-                            Code::Io,
-                            Span::new(&file, 0, 0),
-                            format!("cannot read {}: {e}", path.display()),
-                            "",
-                        )
+                            Code::IncludeNotFound,
+                            span.clone(),
+                            format!("cannot read included file {}: {e}", path.display()),
+                            "included here",
+                        );
                     }
-                };
+                    None => super::report_unreadable(path, &e, diags),
+                }
                 return None;
             }
         };
@@ -242,19 +237,7 @@ fn check_attrs(el: &Element, known: &[&str], diags: &mut Diagnostics) {
 /// The `name` attribute, required and checked to be an identifier.
 fn name_attr(el: &Element, diags: &mut Diagnostics) -> Option<String> {
     let attr = required(el, "name", diags)?;
-    let v = &attr.value;
-    let ok = v.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_')
-        && v.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
-    if !ok {
-        diags.report(
-            Code::InvalidName,
-            attr.value_span.clone(),
-            format!("`{v}` is not a valid name"),
-            "not an identifier",
-        );
-        return None;
-    }
-    Some(v.clone())
+    super::check_name(&attr.value, &attr.value_span, diags).then(|| attr.value.clone())
 }
 
 fn required<'a>(el: &'a Element, name: &str, diags: &mut Diagnostics) -> Option<&'a Attr> {
@@ -554,53 +537,5 @@ fn read_field(el: &Element, extension: bool, diags: &mut Diagnostics) -> Option<
 
 /// `uint16_t`, `float[4]`, `char[16]`, `uint8_t_mavlink_version`, legacy `uint8` and `array[N]`.
 fn parse_type(attr: &Attr, diags: &mut Diagnostics) -> Option<FieldType> {
-    let text = attr.value.trim();
-    if text == "uint8_t_mavlink_version" {
-        return Some(FieldType {
-            primitive: Primitive::U8,
-            array: None,
-            mavlink_version: true,
-        });
-    }
-    let (base, array) = match text.split_once('[') {
-        Some((base, rest)) => {
-            let len = rest
-                .strip_suffix(']')
-                .and_then(|n| n.trim().parse::<u64>().ok());
-            match len {
-                Some(n) if (1..=255).contains(&n) => (base, Some(n as u8)),
-                _ => {
-                    diags.report(
-                        Code::BadArrayLength,
-                        attr.value_span.clone(),
-                        format!("bad array length in `{text}`"),
-                        "expected [1..=255]",
-                    );
-                    return None;
-                }
-            }
-        }
-        None => (text, None),
-    };
-    let primitive = if base == "array" && array.is_some() {
-        Some(Primitive::I8)
-    } else {
-        Primitive::from_c(base)
-    };
-    match primitive {
-        Some(primitive) => Some(FieldType {
-            primitive,
-            array,
-            mavlink_version: false,
-        }),
-        None => {
-            diags.report(
-                Code::UnknownType,
-                attr.value_span.clone(),
-                format!("unknown field type `{base}`"),
-                "not a MAVLink type",
-            );
-            None
-        }
-    }
+    super::parse_type(&attr.value, &attr.value_span, TypeSyntax::Mavlink, diags)
 }

@@ -1,4 +1,185 @@
 //! Frontends: read dictionary files into IR parts, reporting every problem with its position.
+//!
+//! Inputs are told apart by extension: a `.toml` file by its top-level table (`[ring]`: a
+//! TosNet register map, read by [`tosnet`]), everything else as a MAVLink XML dialect
+//! ([`mavlink`]).
 
 pub mod mavlink;
+pub mod toml;
+pub mod tosnet;
 pub mod xml;
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+
+use crate::diag::{Code, Diagnostics, SourceFile, Span};
+use crate::ir::{FieldType, Primitive};
+
+/// Every file a run reads, by format.
+#[derive(Debug, Default)]
+pub struct Loaded {
+    /// MAVLink dialects and their includes.
+    pub mavlink: mavlink::Loaded,
+    /// TosNet register maps, in input order.
+    pub rings: Vec<tosnet::ParsedRing>,
+}
+
+impl Loaded {
+    /// Every path read, for `cargo:rerun-if-changed`.
+    pub fn paths(&self) -> impl Iterator<Item = &Path> {
+        self.mavlink
+            .paths()
+            .chain(self.rings.iter().map(|r| r.source.path.as_path()))
+    }
+}
+
+/// Reads `inputs`: `.toml` files as TOML dictionaries, the rest as MAVLink XML (with their
+/// includes).
+pub fn load(inputs: &[PathBuf], diags: &mut Diagnostics) -> Loaded {
+    let is_toml = |p: &PathBuf| p.extension().is_some_and(|e| e == "toml");
+    let xml: Vec<PathBuf> = inputs.iter().filter(|p| !is_toml(p)).cloned().collect();
+    let mut loaded = Loaded {
+        mavlink: mavlink::load(&xml, diags),
+        rings: Vec::new(),
+    };
+    let mut seen = HashSet::new();
+    for path in inputs.iter().filter(|p| is_toml(p)) {
+        let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
+        if !seen.insert(key) {
+            continue;
+        }
+        if let Some(ring) = load_toml(path, diags) {
+            loaded.rings.push(ring);
+        }
+    }
+    loaded
+}
+
+/// Reads one TOML dictionary and hands it to the reader its top-level table names.
+fn load_toml(path: &Path, diags: &mut Diagnostics) -> Option<tosnet::ParsedRing> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) => {
+            report_unreadable(path, &e, diags);
+            return None;
+        }
+    };
+    let source = SourceFile::new(crate::diag::display_path(path), text);
+    let doc = toml::parse(&source, diags)?;
+    let root = toml::Table::root(&source, &doc);
+    if root.get("ring").is_some() {
+        return Some(tosnet::read(&source, &root, diags));
+    }
+    let first = root.entries().into_iter().next();
+    let (span, label) = match &first {
+        Some(item) => (
+            item.key_span.clone(),
+            format!("`{}` names no kind", item.key),
+        ),
+        None => (Span::new(&source, 0, 0), "empty file".to_string()),
+    };
+    diags.report(
+        Code::UnknownKind,
+        span,
+        "this TOML file is not a dictionary of a known kind: it has no top-level `[ring]` table",
+        label,
+    );
+    None
+}
+
+/// Reports an input that cannot be read (E0001).
+pub(crate) fn report_unreadable(path: &Path, e: &std::io::Error, diags: &mut Diagnostics) {
+    let file = SourceFile::new(path, String::new());
+    diags.report(
+        Code::Io,
+        Span::new(&file, 0, 0),
+        format!("cannot read {}: {e}", path.display()),
+        "",
+    );
+}
+
+/// Which spellings of a field type a format accepts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum TypeSyntax {
+    /// MAVLink XML: also `uint8_t_mavlink_version` and the legacy `array[N]`.
+    Mavlink,
+    /// Formats that only take the plain types (TosNet TOML).
+    Plain,
+}
+
+/// Parses a field type: `uint16_t`, `float[4]`, `char[16]`, legacy `uint8`, and for MAVLink
+/// `uint8_t_mavlink_version` and `array[N]`. Problems are reported at `span`.
+pub(crate) fn parse_type(
+    text: &str,
+    span: &Span,
+    syntax: TypeSyntax,
+    diags: &mut Diagnostics,
+) -> Option<FieldType> {
+    let text = text.trim();
+    if syntax == TypeSyntax::Mavlink && text == "uint8_t_mavlink_version" {
+        return Some(FieldType {
+            primitive: Primitive::U8,
+            array: None,
+            mavlink_version: true,
+        });
+    }
+    let (base, array) = match text.split_once('[') {
+        Some((base, rest)) => {
+            let len = rest
+                .strip_suffix(']')
+                .and_then(|n| n.trim().parse::<u64>().ok());
+            match len {
+                Some(n) if (1..=255).contains(&n) => (base, Some(n as u8)),
+                _ => {
+                    diags.report(
+                        Code::BadArrayLength,
+                        span.clone(),
+                        format!("bad array length in `{text}`"),
+                        "expected [1..=255]",
+                    );
+                    return None;
+                }
+            }
+        }
+        None => (text, None),
+    };
+    let primitive = if syntax == TypeSyntax::Mavlink && base == "array" && array.is_some() {
+        Some(Primitive::I8)
+    } else {
+        Primitive::from_c(base)
+    };
+    match primitive {
+        Some(primitive) => Some(FieldType {
+            primitive,
+            array,
+            mavlink_version: false,
+        }),
+        None => {
+            let label = match syntax {
+                TypeSyntax::Mavlink => "not a MAVLink type",
+                TypeSyntax::Plain => "not a field type",
+            };
+            diags.report(
+                Code::UnknownType,
+                span.clone(),
+                format!("unknown field type `{base}`"),
+                label,
+            );
+            None
+        }
+    }
+}
+
+/// An identifier-shaped name, reported as E0108 at `span` otherwise.
+pub(crate) fn check_name(name: &str, span: &Span, diags: &mut Diagnostics) -> bool {
+    if crate::ident::is_identifier(name) {
+        return true;
+    }
+    diags.report(
+        Code::InvalidName,
+        span.clone(),
+        format!("`{name}` is not a valid name"),
+        "not an identifier",
+    );
+    false
+}

@@ -10,6 +10,10 @@ use ferrolink_runtime::tosnet::Node;
 
 /// The longest a [`UdpNode::step`] waits for a frame.
 const MAX_WAIT: Duration = Duration::from_millis(5);
+/// Deadlines closer than this are waited for by polling the socket.
+pub const PRECISE_BELOW: Duration = Duration::from_millis(2);
+/// The sleep between polls then.
+const PRECISE_STEP: Duration = Duration::from_micros(50);
 
 /// A [`Node`] on a UDP socket.
 #[derive(Debug)]
@@ -61,22 +65,42 @@ impl UdpNode {
 
     /// Waits for one frame (or the node's next deadline, at most 5 ms), handles it, then runs
     /// the node's timers.
+    ///
+    /// A socket's receive timeout only has the kernel's tick as resolution (several ms), so a
+    /// deadline closer than [`PRECISE_BELOW`] is waited for with short sleeps and non-blocking
+    /// reads instead.
     pub fn step(&mut self) -> io::Result<()> {
         let now = self.now();
         let wait = self
             .node
             .next_deadline()
             .map_or(MAX_WAIT, |t| Duration::from_nanos(t.saturating_sub(now)))
-            .clamp(Duration::from_micros(1), MAX_WAIT);
-        self.socket.set_read_timeout(Some(wait))?;
-        match self.socket.recv(&mut self.rx) {
+            .min(MAX_WAIT);
+        let received = if wait >= PRECISE_BELOW {
+            self.socket.set_nonblocking(false)?;
+            self.socket
+                .set_read_timeout(Some(wait - PRECISE_BELOW / 2))?;
+            self.socket.recv(&mut self.rx)
+        } else {
+            self.socket.set_nonblocking(true)?;
+            let got = self.socket.recv(&mut self.rx);
+            if got.is_err() && !wait.is_zero() {
+                std::thread::sleep(wait.min(PRECISE_STEP));
+            }
+            got
+        };
+        match received {
             Ok(len) => {
                 let now = self.now();
                 if let Some(out) = self.node.receive(&self.rx[..len], now, &mut self.tx) {
                     self.send(out);
                 }
             }
-            Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {}
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+                ) => {}
             // A closed port downstream comes back as an error on some systems; the watchdog
             // deals with the broken ring.
             Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => {}

@@ -134,7 +134,20 @@ pub trait NodeId {
 }
 
 /// The right to write node `N`'s out areas. Only a [`Node`](super::Node) whose id is `N::ID`
-/// hands it out, so a slave cannot write another node's data.
+/// hands it out, so a slave cannot write another node's data: a writer for one node does not
+/// type-check where another's is wanted.
+///
+/// ```compile_fail
+/// use ferrolink_runtime::tosnet::{NodeId, OutWriter};
+/// struct A;
+/// struct B;
+/// impl NodeId for A { const ID: u8 = 1; const NAME: &'static str = "a"; const OUT_MASK: u8 = 1; const IN_MASK: u8 = 0; }
+/// impl NodeId for B { const ID: u8 = 2; const NAME: &'static str = "b"; const OUT_MASK: u8 = 1; const IN_MASK: u8 = 0; }
+/// fn write_b(_: &mut OutWriter<'_, B>) {}
+/// fn as_a(w: &mut OutWriter<'_, A>) {
+///     write_b(w); // error: A's writer is not B's
+/// }
+/// ```
 pub struct OutWriter<'a, N: NodeId> {
     block: &'a mut Block,
     node: PhantomData<N>,

@@ -227,8 +227,7 @@ impl<'a> Repr<'a> {
             return Err(FrameError::Truncated);
         }
         let arg = head & 0x0F;
-        let command =
-            Command::from_code(head >> 4).ok_or(FrameError::UnknownCommand(head >> 4))?;
+        let command = Command::from_code(head >> 4).ok_or(FrameError::UnknownCommand(head >> 4))?;
         let exact = |n: usize| {
             if body.len() == n {
                 Ok(())
@@ -506,9 +505,6 @@ mod tests {
         let mut f = [0x30, 0];
         seal_broken(&mut f);
         assert_eq!(Repr::parse(&f), Err(FrameError::Crc));
-        assert_eq!(
-            Repr::parse_unchecked(&f),
-            Ok(Repr::MasterSet { master: 0 })
-        );
+        assert_eq!(Repr::parse_unchecked(&f), Ok(Repr::MasterSet { master: 0 }));
     }
 }

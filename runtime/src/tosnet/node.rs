@@ -404,15 +404,18 @@ impl Node {
                 self.strobe(at);
             }
         }
-        if self.phase != Phase::Halted
-            && now.saturating_sub(self.last_rx) >= self.cfg.watchdog_ns
-        {
+        if self.phase != Phase::Halted && now.saturating_sub(self.last_rx) >= self.cfg.watchdog_ns {
             self.restart(now);
             return self.announce(out);
         }
         if self.halt {
             self.halt = false;
-            return self.emit(out, &Repr::Halt { master: self.cfg.id });
+            return self.emit(
+                out,
+                &Repr::Halt {
+                    master: self.cfg.id,
+                },
+            );
         }
         if let Some(at) = self.next_cycle_at {
             if now >= at {
@@ -551,7 +554,14 @@ impl Node {
                 complete,
                 masks,
             } => {
-                self.adopt(master, if complete { Phase::RegSet } else { Phase::RegDsc });
+                self.adopt(
+                    master,
+                    if complete {
+                        Phase::RegSet
+                    } else {
+                        Phase::RegDsc
+                    },
+                );
                 let n = usize::from(self.count);
                 let p = usize::from(self.position);
                 if n == 0 || masks.len() != 2 * n {
@@ -665,10 +675,7 @@ impl Node {
                     ids,
                 },
             ) if master == id => {
-                let duplicate = ids
-                    .iter()
-                    .enumerate()
-                    .any(|(i, a)| ids[..i].contains(a));
+                let duplicate = ids.iter().enumerate().any(|(i, a)| ids[..i].contains(a));
                 if duplicate || ids.first() != Some(&id) {
                     self.counters.duplicate_ids += 1;
                     self.restart(now);

@@ -45,7 +45,8 @@ pub fn check_node(script: &[u8]) {
         rest = tail;
         match op % 4 {
             0 => {
-                let len = usize::from(rest.first().copied().unwrap_or(0)).min(rest.len().saturating_sub(1));
+                let len = usize::from(rest.first().copied().unwrap_or(0))
+                    .min(rest.len().saturating_sub(1));
                 let mut frame = rest.get(1..1 + len).unwrap_or(&[]).to_vec();
                 rest = rest.get(1 + len..).unwrap_or(&[]);
                 if op & 0x80 != 0 {

@@ -1,7 +1,8 @@
-//! `ferrolink`: generate bindings, check dictionaries, dump the IR, and work with NDLCom
-//! traffic.
+//! `ferrolink`: generate bindings (MAVLink XML dialects, TosNet register maps), check
+//! dictionaries, dump the IR, and work with NDLCom traffic.
 
 mod ndlcom;
+mod tosnet;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -23,7 +24,7 @@ struct Cli {
 enum Command {
     /// Generate Rust bindings: `mod.rs` plus one module per dictionary file.
     Generate {
-        /// Dictionary files (their includes are read too).
+        /// Dictionary files: MAVLink XML (their includes are read too) or TosNet TOML.
         #[arg(required = true)]
         inputs: Vec<PathBuf>,
         /// Output directory.
@@ -54,6 +55,9 @@ enum Command {
     /// NDLCom frames: encode, decode, bridge, log, export.
     #[command(subcommand)]
     Ndlcom(ndlcom::Command),
+    /// TosNet: the cycle-rate model against a simulated ring.
+    #[command(subcommand)]
+    Tosnet(tosnet::Command),
     /// Print the lowered IR as JSON.
     Ir {
         /// Dictionary files.
@@ -125,13 +129,22 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             match ferrolink_codegen::load_for(&inputs, &carrier) {
                 Ok(checked) => {
                     print_warnings(&checked.warnings);
-                    let messages: usize = checked.ir.modules.iter().map(|m| m.messages.len()).sum();
-                    eprintln!(
-                        "ok: {} file(s), {messages} message(s), {} enum(s), {} warning(s)",
-                        checked.ir.modules.len(),
-                        checked.ir.enums.len(),
-                        checked.warnings.len()
+                    let ir = &checked.ir;
+                    let messages: usize = ir.modules.iter().map(|m| m.messages.len()).sum();
+                    let mut summary = format!(
+                        "ok: {} file(s), {messages} message(s), {} enum(s)",
+                        checked.read.len(),
+                        ir.enums.len(),
                     );
+                    if !ir.rings.is_empty() {
+                        let nodes: usize = ir.rings.iter().map(|r| r.nodes.len()).sum();
+                        let registers: usize = ir.rings.iter().map(|r| r.enabled_registers()).sum();
+                        summary.push_str(&format!(
+                            ", {} ring(s) with {nodes} node(s) and {registers} enabled register(s)",
+                            ir.rings.len()
+                        ));
+                    }
+                    eprintln!("{summary}, {} warning(s)", checked.warnings.len());
                     Ok(ExitCode::SUCCESS)
                 }
                 Err(failed) => {
@@ -141,6 +154,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             }
         }
         Command::Ndlcom(command) => ndlcom::run(command),
+        Command::Tosnet(command) => tosnet::run(command),
         Command::Ir { inputs } => {
             let checked = ferrolink_codegen::load(&inputs)?;
             print_warnings(&checked.warnings);
