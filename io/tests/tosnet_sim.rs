@@ -335,3 +335,27 @@ fn the_side_channel_reaches_one_node_or_everyone() {
     );
     assert!(all_running(&r), "the cycle is not disturbed");
 }
+
+#[test]
+fn halt_stops_the_ring_and_the_network_register_tells_where_a_node_is() {
+    let mut r = ring(&[4, 2, 9], 2, LinkModel::default());
+    r.run_until(10 * MS);
+    assert!(all_running(&r));
+    // Id 2 is the master at position 0; id 9 comes after it, at position 1; id 4 at 2.
+    let n = &r.nodes[0];
+    assert_eq!(
+        n.status().network_register(n.config()),
+        4 | 2 << 4 | 0b11 << 8 | 0b11 << 16
+    );
+    r.nodes[1].halt();
+    r.run_for(MS);
+    assert!(r.nodes.iter().all(|n| n.status().phase == Phase::Halted));
+    let cycles: Vec<u32> = r.nodes.iter().map(|n| n.counters().cycles).collect();
+    r.run_for(200 * MS);
+    let after: Vec<u32> = r.nodes.iter().map(|n| n.counters().cycles).collect();
+    assert_eq!(
+        cycles, after,
+        "no cycles and no watchdog restarts once halted"
+    );
+    assert!(r.nodes.iter().all(|n| n.counters().resets == 0));
+}

@@ -169,6 +169,18 @@ pub struct Status {
     pub last_sync_ns: Option<u64>,
 }
 
+impl Status {
+    /// The C driver's network register: bits 3..0 the node id, 7..4 the position in the ring,
+    /// 15..8 the read-enable mask (the registers whose in area the node reads), 23..16 the
+    /// write-enable mask (those whose out area it writes).
+    pub fn network_register(&self, cfg: &Config) -> u32 {
+        u32::from(cfg.id & 0x0F)
+            | u32::from(self.position & 0x0F) << 4
+            | u32::from(cfg.in_mask) << 8
+            | u32::from(cfg.out_mask) << 16
+    }
+}
+
 /// A side-channel message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct AsyncMessage {
