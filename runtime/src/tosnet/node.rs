@@ -364,9 +364,6 @@ impl Node {
             return Err(AsyncError::Busy);
         }
         let msg = AsyncMessage::new(self.cfg.id, dest & 0x0F, data).ok_or(AsyncError::TooLong)?;
-        if data.len() > MAX_ASYNC {
-            return Err(AsyncError::TooLong);
-        }
         self.outbox = Some(msg);
         Ok(())
     }
@@ -628,18 +625,7 @@ impl Node {
                 seal(&mut out[..len]);
                 Some(len)
             }
-            Repr::Async { dest, source, data } => {
-                if source == id {
-                    return None;
-                }
-                if dest == id || dest == 0 {
-                    self.deliver(source, dest, data);
-                }
-                if dest == id {
-                    return None;
-                }
-                copy(frame, out, &mut self.counters)
-            }
+            Repr::Async { dest, source, data } => self.side_channel(dest, source, data, frame, out),
             Repr::Halt { .. } => {
                 self.phase = Phase::Halted;
                 self.sync_at = None;
@@ -771,16 +757,7 @@ impl Node {
                 self.end_cycle(started, now, out)
             }
             (_, Repr::Async { dest, source, data }) => {
-                if source == id {
-                    return None;
-                }
-                if dest == id || dest == 0 {
-                    self.deliver(source, dest, data);
-                }
-                if dest == id {
-                    return None;
-                }
-                copy(frame, out, &mut self.counters)
+                self.side_channel(dest, source, data, frame, out)
             }
             (_, Repr::Halt { master }) if master == id => {
                 self.phase = Phase::Halted;
@@ -904,6 +881,29 @@ impl Node {
         self.commit_in = false;
         self.commit_out = false;
         self.counters.swaps = self.counters.swaps.wrapping_add(1);
+    }
+
+    /// A side-channel message: the destination takes it off the ring, a broadcast goes round
+    /// to its sender, which drops it.
+    fn side_channel(
+        &mut self,
+        dest: u8,
+        source: u8,
+        data: &[u8],
+        frame: &[u8],
+        out: &mut [u8],
+    ) -> Option<usize> {
+        let id = self.cfg.id;
+        if source == id {
+            return None;
+        }
+        if dest == id || dest == 0 {
+            self.deliver(source, dest, data);
+        }
+        if dest == id {
+            return None;
+        }
+        copy(frame, out, &mut self.counters)
     }
 
     fn deliver(&mut self, source: u8, dest: u8, data: &[u8]) {
