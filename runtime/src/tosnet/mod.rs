@@ -35,7 +35,13 @@ pub const CRC_8_TOSNET: Algorithm<u8> = Algorithm {
     residue: 0x00,
 };
 
-const CRC8: Crc<u8, Table<1>> = Crc::<u8, Table<1>>::new(&CRC_8_TOSNET);
+/// 16 bytes per step with `fast-crc` (a 4 KiB table), else 1 (256 bytes).
+#[cfg(feature = "fast-crc")]
+const SLICES: usize = 16;
+#[cfg(not(feature = "fast-crc"))]
+const SLICES: usize = 1;
+
+const CRC8: Crc<u8, Table<SLICES>> = Crc::<u8, Table<SLICES>>::new(&CRC_8_TOSNET);
 
 /// TosNet's CRC-8 of `data`. `crc8(b"123456789") == 0xDF`; data followed by its CRC gives 0.
 pub fn crc8(data: &[u8]) -> u8 {
