@@ -1,6 +1,7 @@
 //! `ferrolink`: generate bindings (MAVLink XML dialects, TosNet register maps), check
-//! dictionaries, dump the IR, and work with NDLCom traffic.
+//! dictionaries, dump the IR, and work with NDLCom traffic and ModRob-1 messages.
 
+mod modrob;
 mod ndlcom;
 mod tosnet;
 
@@ -55,6 +56,9 @@ enum Command {
     /// NDLCom frames: encode, decode, bridge, log, export.
     #[command(subcommand)]
     Ndlcom(ndlcom::Command),
+    /// ModRob-1 messages: encode and decode CAN-1, UART.B-1, SPI-1 and Ethernet-1.
+    #[command(subcommand)]
+    Modrob(modrob::Command),
     /// TosNet: the cycle-rate model against a simulated ring.
     #[command(subcommand)]
     Tosnet(tosnet::Command),
@@ -154,6 +158,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             }
         }
         Command::Ndlcom(command) => ndlcom::run(command),
+        Command::Modrob(command) => modrob::run(command),
         Command::Tosnet(command) => tosnet::run(command),
         Command::Ir { inputs } => {
             let checked = ferrolink_codegen::load(&inputs)?;

@@ -225,12 +225,14 @@ fn encode() -> Result<ExitCode, Box<dyn std::error::Error>> {
 
 /// Turns hex text into bytes across line breaks; whitespace anywhere is ignored.
 #[derive(Default)]
-struct HexReader {
-    high: Option<u8>,
+pub(crate) struct HexReader {
+    /// A high nibble waiting for its low one.
+    pub(crate) high: Option<u8>,
 }
 
 impl HexReader {
-    fn push(&mut self, text: &str, out: &mut Vec<u8>) -> Result<(), String> {
+    /// Appends the bytes of `text` to `out`; an error names the 1-based column.
+    pub(crate) fn push(&mut self, text: &str, out: &mut Vec<u8>) -> Result<(), String> {
         for (i, c) in text.char_indices() {
             if c.is_whitespace() {
                 continue;

@@ -1,0 +1,28 @@
+//! ModRob-1: the messages of the modular mobile robot protocol (commands, publications,
+//! piecewise transmissions) on its three networks.
+//!
+//! - [`message`]: [`Message`] and its CAN-1 form (29-bit extended identifier, 6 or 8 data
+//!   bytes), [`Message::to_can`] and [`Message::from_can`];
+//! - [`uart`]: the UART.B-1 / SPI-1 byte array `0x5A | id_and_len | data | crc8`, with a
+//!   configurable CRC-8 (CRC-8/SMBUS by default);
+//! - [`parser`]: a push stream parser for UART.B-1 / SPI-1 that resynchronises on 0x5A;
+//! - [`ethernet`]: Ethernet-1 packets (ULID, module UUID, count, UART.B-1 messages), a builder
+//!   that batches messages into one datagram and a reader;
+//! - `can` (feature `embedded-can`): conversions to and from `embedded_can::Frame`.
+//!
+//! All of it is `no_std` and allocation-free. Choices the specification leaves open, made
+//! here: CRC-8/SMBUS, `id_and_len` and the Ethernet-1 count little-endian, the last piecewise
+//! chunk padded with zeros, reserved bytes written as zero and ignored when read, and reserved
+//! values (identifier bits 28..26, message type 3, command types 3..=255, a wrong data length)
+//! reported as [`DecodeError`]s.
+
+#[cfg(feature = "embedded-can")]
+pub mod can;
+pub mod ethernet;
+pub mod message;
+pub mod parser;
+pub mod uart;
+
+pub use message::{CanFrame, CommandKind, DecodeError, Message, MessageType};
+pub use parser::{Feed, Parser};
+pub use uart::{decode as decode_uart, encode as encode_uart, Crc8};
