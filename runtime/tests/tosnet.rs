@@ -85,3 +85,50 @@ fn a_ring_of_one_sets_itself_up() {
     assert_eq!(len, Some(data_len(1)));
     assert_eq!(s.delay_ns, 1000, "one hop per round trip");
 }
+
+/// A SYNC_SET from another master than the one that set the ring up must not leave the node
+/// running without a ring (a DATA frame then used to underflow its position arithmetic).
+#[test]
+fn a_sync_set_from_another_master_does_not_start_a_node_without_a_ring() {
+    let mut node = Node::new(Config::new(5).registers(1, 1));
+    let mut out = [0u8; 128];
+    let mut buf = [0u8; 128];
+    let mut send = |node: &mut Node, repr: Repr<'_>| {
+        let len = repr.emit(&mut buf).expect("fits");
+        node.receive(&buf[..len], 1, &mut out);
+    };
+    send(&mut node, Repr::MasterSet { master: 1 });
+    send(
+        &mut node,
+        Repr::Net {
+            master: 1,
+            complete: true,
+            ids: &[1, 5],
+        },
+    );
+    send(
+        &mut node,
+        Repr::Reg {
+            master: 1,
+            complete: true,
+            masks: &[0, 0, 1, 1],
+        },
+    );
+    send(
+        &mut node,
+        Repr::SyncSet {
+            master: 2,
+            delay_ns: 100,
+        },
+    );
+    assert_ne!(node.status().phase, Phase::Running);
+    send(
+        &mut node,
+        Repr::Data {
+            master: 2,
+            cycle: 1,
+            areas: &[0; 32],
+        },
+    );
+    assert_eq!(node.counters().packets, 5);
+}

@@ -33,7 +33,7 @@ struct Cli {
     #[arg(long = "node", value_name = "ID")]
     nodes: Vec<u8>,
     /// Node i listens on BASE_PORT + i and sends to the next node's port.
-    #[arg(long, default_value_t = 35100)]
+    #[arg(long, default_value_t = 35100, value_parser = clap::value_parser!(u16).range(1..=65532))]
     base_port: u16,
     /// The master takes targets on this UDP port.
     #[arg(long, default_value_t = 35200)]

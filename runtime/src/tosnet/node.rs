@@ -598,10 +598,11 @@ impl Node {
                 copy(frame, out, &mut self.counters)
             }
             Repr::SyncSet { master, delay_ns } => {
-                let ready = self.count > 0 && matches!(self.phase, Phase::RegSet | Phase::SyncDsc);
+                let before = self.phase;
+                // `adopt` forgets the ring when the master changed, so decide after it.
                 self.adopt(master, Phase::SyncSet);
                 self.delay_ns = delay_ns;
-                if ready {
+                if self.count > 0 && matches!(before, Phase::RegSet | Phase::SyncDsc) {
                     self.phase = Phase::Running;
                 }
                 copy(frame, out, &mut self.counters)
@@ -613,7 +614,7 @@ impl Node {
                 }
                 self.cycle = cycle;
                 self.counters.cycles = self.counters.cycles.wrapping_add(1);
-                let behind = u64::from(self.count - self.position);
+                let behind = u64::from(self.count.saturating_sub(self.position));
                 self.sync_at = Some(started + behind * u64::from(self.delay_ns));
                 let len = copy(frame, out, &mut self.counters)?;
                 if areas.len() != usize::from(self.registers) * 2 * AREA_LEN {
