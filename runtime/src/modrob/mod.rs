@@ -18,11 +18,14 @@
 
 #[cfg(feature = "embedded-can")]
 pub mod can;
+pub mod dictionary;
 pub mod ethernet;
 pub mod message;
 pub mod parser;
+pub mod piecewise;
 pub mod uart;
 
+pub use dictionary::{Dictionary, Direction, Instance, Network, Robot, Transport, Variable};
 pub use message::{CanFrame, CommandKind, DecodeError, Message, MessageType};
 pub use parser::{Feed, Parser};
 pub use uart::{decode as decode_uart, encode as encode_uart, Crc8};
