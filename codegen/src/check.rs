@@ -1,7 +1,8 @@
-//! Checks on the lowered IR: everything mavgen rejects, the TosNet limits ([`tosnet`]), and the
-//! name collisions that only a Rust backend can hit. Every problem is reported; nothing stops at
-//! the first.
+//! Checks on the lowered IR: everything mavgen rejects, the TosNet limits ([`tosnet`]), the
+//! ModRob-1 rules ([`modrob`]), and the name collisions that only a Rust backend can hit. Every
+//! problem is reported; nothing stops at the first.
 
+pub mod modrob;
 pub mod tosnet;
 
 use std::collections::{HashMap, HashSet};
@@ -79,6 +80,7 @@ pub fn check(ir: &Ir, diags: &mut Diagnostics) {
     }
     check_closures(ir, diags);
     tosnet::check(&ir.rings, diags);
+    modrob::check(&ir.modrob, &ir.robots, diags);
     for e in &ir.enums {
         let mut names: HashMap<&str, &Option<Span>> = HashMap::new();
         let mut values: HashMap<u64, (&str, &Option<Span>)> = HashMap::new();

@@ -6,7 +6,7 @@ use proc_macro2::TokenStream;
 use quote::quote;
 
 use crate::backend::rust::{self, SerdeMode};
-use crate::backend::tosnet;
+use crate::backend::{modrob, tosnet};
 use crate::diag::Failed;
 use crate::format;
 use crate::write::{self, GeneratedFile};
@@ -145,6 +145,7 @@ impl Config {
         let header = format::header(&self.inputs_label());
         let mut modules = rust::emit(&checked.ir, &self.serde);
         modules.extend(tosnet::emit(&checked.ir));
+        modules.extend(modrob::emit(&checked.ir));
         let files = match layout {
             Layout::Single => {
                 let mods = modules

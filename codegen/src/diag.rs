@@ -133,7 +133,7 @@ codes! {
     /// The XML or TOML is not well-formed.
     Syntax = "E0002", Error, "fix the syntax at the marked position; nothing else in the file is checked until it parses";
     /// A TOML file whose top-level table names no kind of dictionary the generator reads.
-    UnknownKind = "E0003", Error, "a TOML dictionary names its kind in a top-level table: `[ring]` for a TosNet register map";
+    UnknownKind = "E0003", Error, "a TOML dictionary names its kind in a top-level table: `[ring]` for a TosNet register map, `[module]` for a ModRob-1 module dictionary, `[robot]` for a ModRob-1 robot";
     /// An element the dialect format does not have.
     UnknownElement = "W0101", Warning, "mavgen ignores it too; check the spelling";
     /// An attribute the element does not have.
@@ -204,6 +204,40 @@ codes! {
     DuplicateRegisterName = "E0411", Error, "give every register of the node its own name";
     /// A register names an area that is not defined.
     UnknownArea = "E0412", Error, "define the area as `[areas.NAME]`, fix the name, or write the area inline as `{ fields = [...] }`";
+    /// Two variables of a ModRob-1 module with the same VI (arrays take one VI per element).
+    DuplicateVi = "E0501", Error, "give every variable its own VI; an array variable takes `count` consecutive VIs";
+    /// Two variables of a ModRob-1 module with the same name.
+    DuplicateVariableName = "E0502", Error, "rename one of the variables";
+    /// A ModRob-1 module with more than 255 variables, or an array that runs past VI 255.
+    TooManyVariables = "E0503", Error, "a ModRob-1 module has at most 255 variables, with VIs 0..=255; split the module";
+    /// A unit that is not an SI unit or a dimensionless kind.
+    UnknownUnit = "E0504", Error, "write an SI base or derived unit with an optional prefix (m, km, rad/s, m/s^2, N.m, kA), `1` for a plain number, or one of the dimensionless kinds `mode`, `counter`, `ratio`";
+    /// `min` above `max`.
+    LimitsReversed = "E0505", Error, "swap `min` and `max`";
+    /// A default or stored value outside the variable's limits.
+    ValueOutsideLimits = "E0506", Error, "change the value or widen the variable's `min`/`max`";
+    /// Two instances of a robot with the same MI.
+    DuplicateMi = "E0507", Error, "give every module of the robot its own `mi`; an instance without one takes its dictionary's";
+    /// A name in a robot file that names nothing: an instance, variable, dictionary or network.
+    UnknownName = "E0508", Error, "use a name defined in the robot file or the instance's dictionary; variables are written `instance.variable` (`instance.array[i]` for an array element)";
+    /// A subscription whose source is an input variable.
+    SubscriptionToInput = "E0509", Error, "subscribe to an output: inputs are set from outside, outputs are what a module produces";
+    /// A publication rate the instance's network cannot carry.
+    RateTooHigh = "E0510", Error, "lower the rate, or put the module on a faster network";
+    /// A negative, infinite or NaN publication rate.
+    BadRate = "E0511", Error, "rates are finite and >= 0 Hz; 0 publishes nothing";
+    /// A subscription that is not `"instance.variable <- instance.variable"`.
+    BadSubscription = "E0512", Error, "write subscriptions as \"target.variable <- source.variable\"";
+    /// An info text that does not fit 255 piecewise chunks or holds a NUL byte.
+    BadInfo = "E0513", Error, "info texts are at most 1785 bytes (255 chunks of 7) and hold no NUL byte";
+    /// Two instances or networks of a robot with the same name.
+    DuplicateRobotName = "E0514", Error, "rename one of them";
+    /// A module on an Ethernet-1 network without a UUID.
+    MissingUuid = "W0515", Warning, "give the instance (or its dictionary) a `uuid`; without one the module id is all zeros";
+    /// A subscription whose target is an output.
+    SubscriptionSetsOutput = "W0516", Warning, "setting an output from outside changes no state; subscribe an input instead";
+    /// The configured traffic on a network exceeds what it carries.
+    NetworkOverloaded = "W0517", Warning, "lower rates on this network or move modules to another";
 }
 
 /// One problem.

@@ -1,5 +1,5 @@
-//! Ferrolink's generator: MAVLink XML dialects and TosNet register maps (TOML) to Rust bindings
-//! for `ferrolink-runtime`.
+//! Ferrolink's generator: MAVLink XML dialects, TosNet register maps and ModRob-1 dictionaries
+//! and robots (TOML) to Rust bindings for `ferrolink-runtime`.
 //!
 //! The pipeline, one module per stage:
 //!
@@ -54,7 +54,8 @@ pub struct Checked {
 }
 
 /// Parses, lowers and checks `inputs`: `.toml` files as TOML dictionaries (a `[ring]` table
-/// makes a TosNet register map), all others as MAVLink XML. Every problem is reported in one go.
+/// makes a TosNet register map, `[module]` a ModRob-1 module dictionary, `[robot]` a ModRob-1
+/// robot), all others as MAVLink XML. Every problem is reported in one go.
 pub fn load(inputs: &[PathBuf]) -> Result<Checked, Failed> {
     load_for(inputs, &[])
 }
@@ -66,6 +67,7 @@ pub fn load_for(inputs: &[PathBuf], carriers: &[check::Carrier]) -> Result<Check
     let read = loaded.paths().map(PathBuf::from).collect();
     let mut ir = lower::lower(loaded.mavlink);
     ir.rings = lower::tosnet::lower(loaded.rings, &mut diags);
+    (ir.modrob, ir.robots) = lower::modrob::lower(loaded.modrob, loaded.robots, &mut diags);
     check::check(&ir, &mut diags);
     for &carrier in carriers {
         check::check_carrier(&ir, carrier, &mut diags);

@@ -5,8 +5,10 @@
 //! - per message: wire order (base fields stably sorted by element size, largest first, then
 //!   extensions in XML order), offsets, `MIN_LEN`/`MAX_LEN`, CRC_EXTRA and target offsets;
 //! - per enum: the integer type that holds every value and every field that uses it;
-//! - TosNet register maps in [`tosnet`]: area names resolved, offsets and lengths.
+//! - TosNet register maps in [`tosnet`]: area names resolved, offsets and lengths;
+//! - ModRob-1 dictionaries and robots in [`modrob`]: fingerprints, names resolved.
 
+pub mod modrob;
 pub mod tosnet;
 
 use std::collections::HashMap;

@@ -21,6 +21,12 @@ pub fn ident(name: &str) -> Ident {
 pub(crate) fn docs(text: &str) -> TokenStream {
     let mut lines = Vec::new();
     for para in text.split("\n\n") {
+        if para.trim().is_empty() {
+            continue;
+        }
+        if !lines.is_empty() {
+            lines.push(String::new());
+        }
         let mut line = String::new();
         for word in para.split_whitespace() {
             if !line.is_empty() && line.len() + word.len() > 96 {
@@ -31,12 +37,7 @@ pub(crate) fn docs(text: &str) -> TokenStream {
             }
             line.push_str(word);
         }
-        if !line.is_empty() {
-            if !lines.is_empty() {
-                lines.push(String::new());
-            }
-            lines.push(line);
-        }
+        lines.push(line);
     }
     let lines = lines.into_iter().map(|l| format!(" {l}"));
     quote! { #( #[doc = #lines] )* }

@@ -1,10 +1,12 @@
 //! Frontends: read dictionary files into IR parts, reporting every problem with its position.
 //!
 //! Inputs are told apart by extension: a `.toml` file by its top-level table (`[ring]`: a
-//! TosNet register map, read by [`tosnet`]), everything else as a MAVLink XML dialect
+//! TosNet register map, read by [`tosnet`]; `[module]` and `[robot]`: a ModRob-1 module
+//! dictionary or robot, read by [`modrob`]), everything else as a MAVLink XML dialect
 //! ([`mavlink`]).
 
 pub mod mavlink;
+pub mod modrob;
 pub mod toml;
 pub mod tosnet;
 pub mod xml;
@@ -22,6 +24,17 @@ pub struct Loaded {
     pub mavlink: mavlink::Loaded,
     /// TosNet register maps, in input order.
     pub rings: Vec<tosnet::ParsedRing>,
+    /// ModRob-1 module dictionaries: those given, then those robots name, each once.
+    pub modrob: Vec<modrob::ParsedModule>,
+    /// ModRob-1 robots, in input order.
+    pub robots: Vec<modrob::ParsedRobot>,
+}
+
+/// One TOML dictionary, by kind.
+enum TomlFile {
+    Ring(tosnet::ParsedRing),
+    Module(modrob::ParsedModule),
+    Robot(modrob::ParsedRobot),
 }
 
 impl Loaded {
@@ -30,6 +43,8 @@ impl Loaded {
         self.mavlink
             .paths()
             .chain(self.rings.iter().map(|r| r.source.path.as_path()))
+            .chain(self.modrob.iter().map(|m| Path::new(&m.module.path)))
+            .chain(self.robots.iter().map(|r| r.source.path.as_path()))
     }
 }
 
@@ -40,23 +55,64 @@ pub fn load(inputs: &[PathBuf], diags: &mut Diagnostics) -> Loaded {
     let xml: Vec<PathBuf> = inputs.iter().filter(|p| !is_toml(p)).cloned().collect();
     let mut loaded = Loaded {
         mavlink: mavlink::load(&xml, diags),
-        rings: Vec::new(),
+        ..Loaded::default()
     };
     let mut seen = HashSet::new();
     for path in inputs.iter().filter(|p| is_toml(p)) {
         let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
-        if !seen.insert(key) {
+        if !seen.insert(key.clone()) {
             continue;
         }
-        if let Some(ring) = load_toml(path, diags) {
-            loaded.rings.push(ring);
+        match load_toml(path, key, diags) {
+            Some(TomlFile::Ring(ring)) => loaded.rings.push(ring),
+            Some(TomlFile::Module(module)) => loaded.modrob.push(module),
+            Some(TomlFile::Robot(robot)) => loaded.robots.push(robot),
+            None => {}
+        }
+    }
+    let named: Vec<(modrob::Spanned, PathBuf)> = loaded
+        .robots
+        .iter()
+        .flat_map(|r| r.dictionaries.iter().cloned())
+        .collect();
+    for (name, path) in named {
+        if !seen.insert(path.clone()) {
+            continue;
+        }
+        if !path.is_file() {
+            diags.report(
+                Code::IncludeNotFound,
+                name.span,
+                format!(
+                    "dictionary `{}` is {}, which does not exist",
+                    name.text,
+                    path.display()
+                ),
+                "not found",
+            );
+            continue;
+        }
+        match load_toml(&path, path.clone(), diags) {
+            Some(TomlFile::Module(module)) => loaded.modrob.push(module),
+            Some(_) => {
+                diags.report(
+                    Code::UnknownKind,
+                    name.span,
+                    format!(
+                        "dictionary `{}` is not a ModRob-1 module dictionary",
+                        name.text
+                    ),
+                    "expected a file with a `[module]` table",
+                );
+            }
+            None => {}
         }
     }
     loaded
 }
 
 /// Reads one TOML dictionary and hands it to the reader its top-level table names.
-fn load_toml(path: &Path, diags: &mut Diagnostics) -> Option<tosnet::ParsedRing> {
+fn load_toml(path: &Path, canonical: PathBuf, diags: &mut Diagnostics) -> Option<TomlFile> {
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
         Err(e) => {
@@ -68,7 +124,17 @@ fn load_toml(path: &Path, diags: &mut Diagnostics) -> Option<tosnet::ParsedRing>
     let doc = toml::parse(&source, diags)?;
     let root = toml::Table::root(&source, &doc);
     if root.get("ring").is_some() {
-        return Some(tosnet::read(&source, &root, diags));
+        return Some(TomlFile::Ring(tosnet::read(&source, &root, diags)));
+    }
+    if root.get("module").is_some() {
+        let module = modrob::read_module(&source, canonical, &root, diags);
+        return Some(TomlFile::Module(module));
+    }
+    if root.get("robot").is_some() {
+        let dir = path.parent().unwrap_or(Path::new(""));
+        return Some(TomlFile::Robot(modrob::read_robot(
+            &source, dir, &root, diags,
+        )));
     }
     let first = root.entries().into_iter().next();
     let (span, label) = match &first {
@@ -81,7 +147,7 @@ fn load_toml(path: &Path, diags: &mut Diagnostics) -> Option<tosnet::ParsedRing>
     diags.report(
         Code::UnknownKind,
         span,
-        "this TOML file is not a dictionary of a known kind: it has no top-level `[ring]` table",
+        "this TOML file is not a dictionary of a known kind: it has no top-level `[ring]`, `[module]` or `[robot]` table",
         label,
     );
     None

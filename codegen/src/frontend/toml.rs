@@ -233,6 +233,33 @@ impl<'a, 'i> Item<'a, 'i> {
         }
     }
 
+    /// A number, integer or float (`inf` and `nan` included); anything else is reported
+    /// (E0104).
+    pub fn as_float(&self, diags: &mut Diagnostics) -> Option<f64> {
+        let parsed = match self.value {
+            DeValue::Float(f) => f.as_str().replace('_', "").parse::<f64>().ok(),
+            DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix())
+                .ok()
+                .map(|v| v as f64),
+            _ => None,
+        };
+        if parsed.is_none() {
+            self.wrong_type("a number", diags);
+        }
+        parsed
+    }
+
+    /// A boolean; anything else is reported (E0104).
+    pub fn as_bool(&self, diags: &mut Diagnostics) -> Option<bool> {
+        match self.value {
+            DeValue::Boolean(b) => Some(*b),
+            _ => {
+                self.wrong_type("a boolean", diags);
+                None
+            }
+        }
+    }
+
     /// The table, described as `what` in later messages; reports a value of another type.
     pub fn as_table(
         &self,

@@ -148,6 +148,21 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                             ir.rings.len()
                         ));
                     }
+                    if !ir.modrob.is_empty() {
+                        let vis: usize = ir.modrob.iter().map(|m| m.vi_count()).sum();
+                        summary.push_str(&format!(
+                            ", {} ModRob-1 dictionaries with {vis} variable(s)",
+                            ir.modrob.len()
+                        ));
+                    }
+                    for robot in &ir.robots {
+                        summary.push_str(&format!(
+                            ", robot `{}` with {} module(s) on {} network(s)",
+                            robot.name.wire,
+                            robot.instances.len(),
+                            robot.networks.len()
+                        ));
+                    }
                     eprintln!("{summary}, {} warning(s)", checked.warnings.len());
                     Ok(ExitCode::SUCCESS)
                 }
