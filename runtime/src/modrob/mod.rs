@@ -19,13 +19,20 @@
 #[cfg(feature = "embedded-can")]
 pub mod can;
 pub mod dictionary;
+pub mod engine;
 pub mod ethernet;
+pub mod leader;
 pub mod message;
 pub mod parser;
+pub mod persist;
 pub mod piecewise;
 pub mod uart;
 
 pub use dictionary::{Dictionary, Direction, Instance, Network, Robot, Transport, Variable};
+pub use engine::{Engine, Handled, SetError};
+pub use leader::{Forward, Leader, Port};
 pub use message::{CanFrame, CommandKind, DecodeError, Message, MessageType};
 pub use parser::{Feed, Parser};
+pub use persist::{PersistError, Settings};
+pub use piecewise::{Progress, Reassembler};
 pub use uart::{decode as decode_uart, encode as encode_uart, Crc8};
