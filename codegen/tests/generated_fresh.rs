@@ -51,6 +51,11 @@ fn generated_bindings_are_fresh() {
         &inputs("definitions/tosnet", "toml"),
         "generated/src/tosnet",
     ));
+    stale.extend(check(
+        &mut Config::new(),
+        &inputs("definitions/modrob", "toml"),
+        "generated/src/modrob",
+    ));
     if stale.is_empty() {
         return;
     }

@@ -5,6 +5,7 @@
 //! ```sh
 //! cargo run -p ferrolink-codegen --features cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde
 //! cargo run -p ferrolink-codegen --features cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet
+//! cargo run -p ferrolink-codegen --features cli -- generate definitions/modrob/*.toml --out generated/src/modrob
 //! ```
 //!
 //! A test fails when these files are stale.
@@ -15,3 +16,5 @@
 pub mod mavlink;
 #[rustfmt::skip]
 pub mod tosnet;
+#[rustfmt::skip]
+pub mod modrob;

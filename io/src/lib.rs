@@ -61,6 +61,7 @@ use std::io;
 use std::time::Duration;
 
 pub mod bridge;
+pub mod modrob;
 mod serial;
 mod tcp;
 pub mod tosnet;
