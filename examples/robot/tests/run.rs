@@ -1,0 +1,103 @@
+//! The example robot for 10 simulated seconds on its CAN bus: the leader configures every
+//! module, and every stored subscription delivers values at its source's rate.
+
+use ferrolink_example_robot::can::CanRobot;
+use ferrolink_generated::modrob::{drive, motion_control, robot};
+use ferrolink_runtime::modrob::{CommandKind, Message};
+
+/// Every (target instance, source instance, source VI) of the stored configuration.
+fn subscriptions() -> Vec<(usize, usize, u8)> {
+    let r = &robot::ROBOT;
+    let mut subs = Vec::new();
+    for (t, inst) in r.instances.iter().enumerate() {
+        for c in inst.commands {
+            if let Message::Command {
+                command: CommandKind::SetSubscription { module, variable },
+                ..
+            } = c
+            {
+                let s = r
+                    .instances
+                    .iter()
+                    .position(|i| i.module == *module)
+                    .expect("source");
+                subs.push((t, s, *variable));
+            }
+        }
+    }
+    subs
+}
+
+#[test]
+fn ten_seconds_on_the_can_bus() {
+    let mut sim = CanRobot::new();
+    sim.run_until(1_000_000);
+    let n = robot::INSTANCES.len();
+    for i in (0..n).filter(|&i| i != robot::ROBOT.leader) {
+        assert!(
+            sim.configured(i),
+            "{} not configured after 1 s",
+            robot::INSTANCES[i].name
+        );
+    }
+    let subs = subscriptions();
+    assert_eq!(subs.len(), 4, "the four wheel set points");
+    let before: Vec<u32> = sim
+        .modules()
+        .iter()
+        .map(|m| m.counters().subscription_updates)
+        .collect();
+    sim.run_until(10_000_000);
+    for &(target, source, vi) in &subs {
+        let rate = sim.modules()[source].rate(vi).expect("source variable");
+        let expected = rate * 9.0;
+        let got = (sim.modules()[target].counters().subscription_updates - before[target]) as f32;
+        assert!(
+            (got - expected).abs() <= expected * 0.01,
+            "{} got {got} updates in 9 s, expected {expected}",
+            robot::INSTANCES[target].name
+        );
+        // The set point is the last published wheel speed: at most one period behind.
+        let target_value = sim.modules()[target]
+            .value(drive::Var::SpeedSetpoint.vi())
+            .unwrap();
+        let source_value = sim.modules()[source].value(vi).unwrap();
+        assert!(
+            (target_value - source_value).abs() < 0.05,
+            "{target_value} vs {source_value}"
+        );
+    }
+    // Stored values and rates arrived: speed control on, currents at 10 Hz.
+    for (i, inst) in robot::INSTANCES.iter().enumerate() {
+        if inst.dictionary == "drive" {
+            let m = &sim.modules()[i];
+            assert_eq!(m.value(drive::Var::Mode.vi()), Some(1.0), "{}", inst.name);
+            assert_eq!(
+                m.rate(drive::Var::Current.vi()),
+                Some(10.0),
+                "{}",
+                inst.name
+            );
+            // The wheels turn: the drive tracks its set point.
+            let speed = m.value(drive::Var::Speed.vi()).unwrap();
+            assert!(speed.abs() > 1.0, "{} speed {speed}", inst.name);
+        }
+    }
+    let motion = &sim.modules()[robot::ROBOT.leader];
+    let x = motion.value(motion_control::Var::X.vi()).unwrap();
+    let y = motion.value(motion_control::Var::Y.vi()).unwrap();
+    assert!(x.hypot(y) > 1.0, "the robot drove: ({x}, {y})");
+    // Nothing was refused, nothing lost, and the bus kept up.
+    for (i, m) in sim.modules().iter().enumerate() {
+        let c = m.counters();
+        assert_eq!(
+            (c.rejected, c.unknown_variable, c.missed),
+            (0, 0, 0),
+            "{}",
+            robot::INSTANCES[i].name
+        );
+    }
+    let load = sim.bus().busy_ns as f64 / 10e9;
+    assert!(load > 0.3 && load < 0.6, "bus load {load}");
+    assert_eq!(sim.leader().appeared, 13);
+}
