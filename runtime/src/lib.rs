@@ -7,7 +7,7 @@
 //! | `mavlink` | MAVLink v1/v2 frames, the backtracking stream parser, message signing |
 //! | `ndlcom`  | NDLCom frames, stream parser, packet counters, router and bridge |
 //! | `tosnet`  | TosNet shared-memory block, ring frames and the node engine |
-//! | `modrob`  | ModRob-1 messages on CAN-1, UART.B-1/SPI-1 (encoder, stream parser) and Ethernet-1 packets |
+//! | `modrob`  | ModRob-1 messages on CAN-1, UART.B-1/SPI-1 (encoder, stream parser) and Ethernet-1 packets; module and leader engines |
 //! | `embedded-can` | `embedded_can::Frame` conversions for ModRob-1 messages (implies `modrob`) |
 //! | `fast-crc` | a 16-bytes-per-step CRC table (8 KiB) instead of the 512-byte one; on by default |
 //! | `serde`   | serde support for generated types (pymavlink's `to_dict()` JSON form) |

@@ -101,3 +101,34 @@ fn ten_seconds_on_the_can_bus() {
     assert!(load > 0.3 && load < 0.6, "bus load {load}");
     assert_eq!(sim.leader().appeared, 13);
 }
+
+/// The same robot over Ethernet-1 on UDP loopback, one thread per module, for 3 s of wall-clock
+/// time. The bounds are loose on purpose: this checks that packets flow and the leader's
+/// configuration and subscriptions work over UDP, not timing on a loaded machine.
+#[test]
+fn three_seconds_over_ethernet() {
+    use std::sync::atomic::Ordering;
+    let base = 20_000 + (std::process::id() % 20_000) as u16;
+    let shared =
+        ferrolink_example_robot::ethernet::run(base, std::time::Duration::from_secs(3), |_, _| {})
+            .expect("runs");
+    for (i, inst) in robot::INSTANCES.iter().enumerate() {
+        if i != robot::ROBOT.leader {
+            assert!(
+                shared.configured[i].load(Ordering::Relaxed),
+                "{} not configured",
+                inst.name
+            );
+        }
+    }
+    for (target, _, _) in subscriptions() {
+        let updates = shared.subscription_updates[target].load(Ordering::Relaxed);
+        assert!(
+            updates >= 50,
+            "{}: {updates} updates in 3 s at 100 Hz",
+            robot::INSTANCES[target].name
+        );
+    }
+    assert!(shared.packets.load(Ordering::Relaxed) > 0);
+    assert!(shared.upstream.load(Ordering::Relaxed) > 1_000);
+}

@@ -1,5 +1,5 @@
 //! ModRob-1: the messages of the modular mobile robot protocol (commands, publications,
-//! piecewise transmissions) on its three networks.
+//! piecewise transmissions) on its three networks, and the engines of its modules and leaders.
 //!
 //! - [`message`]: [`Message`] and its CAN-1 form (29-bit extended identifier, 6 or 8 data
 //!   bytes), [`Message::to_can`] and [`Message::from_can`];
@@ -8,7 +8,12 @@
 //! - [`parser`]: a push stream parser for UART.B-1 / SPI-1 that resynchronises on 0x5A;
 //! - [`ethernet`]: Ethernet-1 packets (ULID, module UUID, count, UART.B-1 messages), a builder
 //!   that batches messages into one datagram and a reader;
-//! - `can` (feature `embedded-can`): conversions to and from `embedded_can::Frame`.
+//! - `can` (feature `embedded-can`): conversions to and from `embedded_can::Frame`;
+//! - [`dictionary`]: the tables the generator emits for module dictionaries and robots;
+//! - [`engine`]: a module's variables, commands, subscriptions and publication schedule;
+//! - [`persist`]: the stored image of a module's settings, checked before it is loaded;
+//! - [`piecewise`]: chunking a module's info text and reassembling it;
+//! - [`leader`]: configuring modules as they appear, and routing between networks.
 //!
 //! All of it is `no_std` and allocation-free. Choices the specification leaves open, made
 //! here: CRC-8/SMBUS, `id_and_len` and the Ethernet-1 count little-endian, the last piecewise
