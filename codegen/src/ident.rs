@@ -160,3 +160,15 @@ mod tests {
         assert!(!is_identifier("1a") && !is_identifier("a-b") && !is_identifier(""));
     }
 }
+
+/// A dictionary file's module name: its file stem, and that as a Rust value name.
+pub fn file_module_name(path: &std::path::Path) -> crate::ir::Name {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    crate::ir::Name {
+        rust: value_name(&stem),
+        wire: stem,
+    }
+}

@@ -15,7 +15,7 @@ use std::collections::HashMap;
 
 use crate::frontend::mavlink::Loaded;
 use crate::ident;
-use crate::ir::{Enum, Ir, Message, Module, Name, Primitive};
+use crate::ir::{Enum, Ir, Message, Module, Primitive};
 
 /// Builds the IR of the MAVLink dialects (rings are added by [`tosnet::lower`]). Problems are
 /// left to [`crate::check`]; lowering never fails.
@@ -23,17 +23,8 @@ pub fn lower(loaded: Loaded) -> Ir {
     let mut ir = Ir::default();
     let mut enum_index: HashMap<String, usize> = HashMap::new();
     for (m, file) in loaded.files.into_iter().enumerate() {
-        let stem = file
-            .source
-            .path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
         let mut module = Module {
-            name: Name {
-                rust: ident::value_name(&stem),
-                wire: stem,
-            },
+            name: ident::file_module_name(&file.source.path),
             path: file.source.path.display().to_string(),
             version: file.version,
             dialect: file.dialect,

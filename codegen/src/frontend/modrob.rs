@@ -143,16 +143,13 @@ pub fn read_module(
     diags: &mut Diagnostics,
 ) -> ParsedModule {
     root.check_keys(MODULE_ROOT_KEYS, diags);
-    let stem = stem(source);
+    let name = ident::file_module_name(&source.path);
     let header = root
         .get("module")
         .and_then(|m| m.as_table("`[module]`", diags));
     let mut module = ModrobModule {
-        name: Name {
-            rust: ident::value_name(&stem),
-            wire: stem.clone(),
-        },
-        dictionary: stem,
+        dictionary: name.wire.clone(),
+        name,
         path: source.path.display().to_string(),
         kind: String::new(),
         module_id: 0,
@@ -306,14 +303,6 @@ fn uuid(item: &Item<'_, '_>, diags: &mut Diagnostics) -> Option<[u8; 16]> {
         );
     }
     bytes
-}
-
-fn stem(source: &SourceFile) -> String {
-    source
-        .path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
 }
 
 fn spanned(item: &Item<'_, '_>, diags: &mut Diagnostics) -> Option<Spanned> {

@@ -10,7 +10,7 @@ use std::collections::{HashMap, HashSet};
 use crate::diag::{Code, Diagnostics};
 use crate::frontend::modrob::{ParsedModule, ParsedRobot, Spanned};
 use crate::ident;
-use crate::ir::{ModrobModule, Name, Robot, RobotInstance, Setting, Subscription, VarRef};
+use crate::ir::{ModrobModule, Robot, RobotInstance, Setting, Subscription, VarRef};
 
 /// Builds the module dictionaries and the robots.
 pub fn lower(
@@ -76,12 +76,6 @@ fn lower_robot(
     by_path: &HashMap<std::path::PathBuf, usize>,
     diags: &mut Diagnostics,
 ) -> Robot {
-    let stem = parsed
-        .source
-        .path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
     let dictionary_index: HashMap<&str, usize> = parsed
         .dictionaries
         .iter()
@@ -93,10 +87,7 @@ fn lower_robot(
         .map(|(n, _)| n.text.as_str())
         .collect();
     let mut robot = Robot {
-        name: Name {
-            rust: ident::value_name(&stem),
-            wire: stem,
-        },
+        name: ident::file_module_name(&parsed.source.path),
         path: parsed.source.path.display().to_string(),
         description: parsed.description,
         networks: parsed.networks,

@@ -17,17 +17,8 @@ pub fn lower(parsed: Vec<ParsedRing>, diags: &mut Diagnostics) -> Vec<Ring> {
 }
 
 fn lower_ring(parsed: ParsedRing, diags: &mut Diagnostics) -> Ring {
-    let stem = parsed
-        .source
-        .path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
     let mut ring = Ring {
-        name: Name {
-            rust: ident::value_name(&stem),
-            wire: stem,
-        },
+        name: ident::file_module_name(&parsed.source.path),
         path: parsed.source.path.display().to_string(),
         description: parsed.description,
         areas: Vec::new(),
