@@ -119,6 +119,18 @@ pub fn flag_name(enum_wire: &str, entry_wire: &str) -> String {
     )
 }
 
+/// A dictionary file's module name: its file stem, and that as a Rust value name.
+pub fn file_module_name(path: &std::path::Path) -> crate::ir::Name {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    crate::ir::Name {
+        rust: value_name(&stem),
+        wire: stem,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -158,17 +170,5 @@ mod tests {
         );
         assert!(is_identifier("_a1") && is_identifier("motor_1"));
         assert!(!is_identifier("1a") && !is_identifier("a-b") && !is_identifier(""));
-    }
-}
-
-/// A dictionary file's module name: its file stem, and that as a Rust value name.
-pub fn file_module_name(path: &std::path::Path) -> crate::ir::Name {
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    crate::ir::Name {
-        rust: value_name(&stem),
-        wire: stem,
     }
 }
