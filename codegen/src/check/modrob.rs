@@ -75,10 +75,10 @@ fn check_module(module: &ModrobModule, diags: &mut Diagnostics) {
             );
         }
         let last = u16::from(v.vi) + u16::from(v.count) - 1;
-        if last > 255 {
+        if let Some(span) = span_of(&v.spans.vi, &at).filter(|_| last > 255) {
             diags.report(
                 Code::TooManyVariables,
-                span_of(&v.spans.vi, &at).unwrap_or_else(|| at.clone().expect("span")),
+                span,
                 format!(
                     "array `{}` takes VIs {}..={last}, past 255",
                     v.name.wire, v.vi
@@ -284,19 +284,10 @@ fn check_robot(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostics)
             }
         }
     }
-    let variable = |r: VarRef| -> (&ModrobVariable, String) {
-        let inst = &robot.instances[r.instance];
-        let module = &modules[inst.dictionary];
-        let (v, i) = module.variable_at(r.vi).expect("resolved when lowered");
-        let name = if v.count > 1 {
-            format!("{}.{}[{i}]", inst.name.wire, v.name.wire)
-        } else {
-            format!("{}.{}", inst.name.wire, v.name.wire)
-        };
-        (v, name)
-    };
     for s in &robot.values {
-        let (v, name) = variable(s.target);
+        let Some((v, name)) = variable(robot, modules, s.target) else {
+            continue;
+        };
         if let Some(span) = s.span.clone() {
             if !(v.min..=v.max).contains(&s.value) {
                 diags.report(
@@ -312,9 +303,11 @@ fn check_robot(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostics)
         }
     }
     for sub in &robot.subscriptions {
-        let (source, source_name) = variable(sub.source);
-        let (target, target_name) = variable(sub.target);
-        let Some(span) = sub.span.clone() else {
+        let (Some((source, source_name)), Some((target, target_name)), Some(span)) = (
+            variable(robot, modules, sub.source),
+            variable(robot, modules, sub.target),
+            sub.span.clone(),
+        ) else {
             continue;
         };
         if source.direction == Direction::Input {
@@ -350,8 +343,10 @@ fn check_traffic(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostic
         }
     }
     for s in &robot.rates {
-        let (_, name) = describe(robot, modules, s.target);
-        let Some(span) = s.span.clone() else { continue };
+        let (Some((_, name)), Some(span)) = (variable(robot, modules, s.target), s.span.clone())
+        else {
+            continue;
+        };
         if check_rate(s.value, span.clone(), &name, diags) {
             rates.insert(s.target, (s.value, Some(span)));
         }
@@ -365,7 +360,8 @@ fn check_traffic(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostic
         let net = &robot.networks[network];
         let cap = capacity(net);
         if *rate > cap {
-            let (inst_span, name) = describe(robot, modules, *r);
+            let inst_span = robot.instances[r.instance].span.clone();
+            let name = variable(robot, modules, *r).map_or_else(String::new, |(_, n)| n);
             if let Some(span) = span.clone().or(inst_span) {
                 diags.report(
                     Code::RateTooHigh,
@@ -407,14 +403,21 @@ fn check_traffic(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostic
     }
 }
 
-fn describe(robot: &Robot, modules: &[ModrobModule], r: VarRef) -> (Option<Span>, String) {
-    let inst = &robot.instances[r.instance];
-    let name = match modules[inst.dictionary].variable_at(r.vi) {
-        Some((v, i)) if v.count > 1 => format!("{}.{}[{i}]", inst.name.wire, v.name.wire),
-        Some((v, _)) => format!("{}.{}", inst.name.wire, v.name.wire),
-        None => format!("{}.#{}", inst.name.wire, r.vi),
+/// The variable `r` names, and its name as a robot file writes it (`drive_fl.speed`,
+/// `planar.x0[3]`).
+fn variable<'m>(
+    robot: &Robot,
+    modules: &'m [ModrobModule],
+    r: VarRef,
+) -> Option<(&'m ModrobVariable, String)> {
+    let inst = robot.instances.get(r.instance)?;
+    let (v, i) = modules.get(inst.dictionary)?.variable_at(r.vi)?;
+    let name = if v.count > 1 {
+        format!("{}.{}[{i}]", inst.name.wire, v.name.wire)
+    } else {
+        format!("{}.{}", inst.name.wire, v.name.wire)
     };
-    (inst.span.clone(), name)
+    Some((v, name))
 }
 
 fn transport_name(t: Transport) -> &'static str {

@@ -126,10 +126,14 @@ fn lower_robot(
             span: Some(inst.span),
         });
     }
-    if robot.instances.is_empty() && dropped.is_empty() {
+    if let Some(span) = robot
+        .span
+        .clone()
+        .filter(|_| robot.instances.is_empty() && dropped.is_empty())
+    {
         diags.report(
             Code::Missing,
-            robot.span.clone().expect("robot span"),
+            span,
             "the robot has no `[[instances]]`",
             "a robot needs at least its leader",
         );

@@ -182,8 +182,10 @@ impl Bus {
             let winner = (0..self.queues.len())
                 .filter(|&n| self.queues[n].front().is_some_and(|f| f.ready_ns <= start))
                 .min_by_key(|&n| self.queues[n].front().map_or(u32::MAX, |f| f.frame.id));
-            let Some(node) = winner else { break };
-            let queued = self.queues[node].pop_front().expect("a head frame");
+            let Some((node, queued)) = winner.and_then(|n| Some((n, self.queues[n].pop_front()?)))
+            else {
+                break;
+            };
             let bits = u64::from(frame_bits(&queued.frame));
             let duration = (bits * 1_000_000_000).div_ceil(self.bitrate);
             self.stats.bits += bits;
