@@ -17,6 +17,7 @@ mod enums;
 mod error;
 mod frame;
 pub mod parser;
+pub mod router;
 pub mod signing;
 #[cfg(test)]
 pub(crate) mod testing;

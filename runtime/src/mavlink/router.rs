@@ -1,0 +1,832 @@
+//! The MAVLink routing rules, exact and allocation-free: what an embedded radio runs between two
+//! UARTs and what the `ferrolink mavlink router` daemon runs between sockets.
+//!
+//! A [`Router`] has `L` link slots. Each open link has its own stream [`Parser`], so bytes are
+//! fed per link with [`Router::receive`], which hands out every frame the link delivered together
+//! with the links it goes to ([`Routed::to`], a bitmask) or why it goes nowhere. The caller sends
+//! [`Routed::bytes`], unchanged, to every link in the mask.
+//!
+//! The rules (mavlink.io "Routing", made exact):
+//!
+//! - **Learning.** A link learns (system, component) pairs only from frames that passed their
+//!   checksum, or from unknown ids passed through unchecked, and only after its inbound checks
+//!   (signing, duplicates, inbound filter). Bad frames never teach a route.
+//! - **Never back.** A frame never goes back to the link it came from, nor to a link of the same
+//!   group (redundant links to the same place).
+//! - **Broadcast.** A frame without a target field, with `target_system` 0, or with an unknown id
+//!   goes to every other link.
+//! - **Addressed.** With `target_component` non-zero and the exact pair seen, the frame goes to
+//!   the links where that pair was seen; otherwise to every link where `target_system` was seen.
+//!   A target seen nowhere gets nothing, and the frame counts as [`Drop::NoRoute`].
+//! - **Groups.** Links with the same non-zero [`LinkConfig::group`] share their routes: a frame
+//!   routed to one of them goes to all of them.
+//! - **Filters** allow or block by message id, source system and source component, inbound
+//!   ([`LinkConfig::inbound`]) and outbound ([`LinkConfig::outbound`]).
+//! - **Duplicates.** A link with a [`LinkConfig::dedup_window_us`] drops a frame whose exact bytes
+//!   were seen (on any link) within the window: redundant radios deliver each frame twice.
+//! - **Late frames.** A link with a [`LinkConfig::max_delay_us`] is not sent frames that were
+//!   received longer ago than that (a backlog of stale telemetry on a slow link).
+//! - **Signing at the edge.** A link with [`LinkConfig::require_signing`] drops unsigned frames,
+//!   bad signatures and replays. Signed frames are always forwarded untouched; the router never
+//!   signs anything, so traffic from an untrusted link is never made trusted.
+//! - **Bounded storage.** Routes age out after [`Router::set_route_ttl_us`] (10 s by default). A
+//!   full route or source table evicts its oldest entry, counts it, and keeps working.
+//!
+//! ```
+//! use ferrolink_runtime::mavlink::router::{LinkConfig, Router};
+//! use ferrolink_runtime::mavlink::MessageMeta;
+//!
+//! static META: &[MessageMeta] = &[MessageMeta {
+//!     id: 0, name: "HEARTBEAT", crc_extra: 50, min_len: 9, max_len: 9,
+//!     target_system: None, target_component: None,
+//! }];
+//! let heartbeat = [
+//!     0xfd, 0x09, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00, 0x04, 0x00, 0x00, 0x00,
+//!     0x02, 0x03, 0x51, 0x04, 0x03, 0x7b, 0xae,
+//! ];
+//! let mut router: Router<4> = Router::new(META);
+//! let uart_a = router.open_link(LinkConfig::default()).unwrap();
+//! let uart_b = router.open_link(LinkConfig::default()).unwrap();
+//! router.receive(uart_a, &heartbeat, 0, 0, |routed| {
+//!     assert_eq!(routed.to, 1 << uart_b); // a broadcast: every other link
+//!     assert_eq!(routed.bytes, &heartbeat[..]);
+//! });
+//! assert_eq!(router.routes().next().map(|r| (r.sysid, r.compid, r.link)), Some((1, 1, uart_a)));
+//! ```
+
+use core::fmt;
+
+use super::parser::{Feed, ParsedFrame, Parser, Stats as ParserStats};
+use super::signing::{timestamp_from_unix_micros, SecretKey, Verifier, VerifyError};
+use super::MessageMeta;
+
+/// A set of links, bit `i` for link `i`.
+pub type LinkMask = u64;
+
+/// The most links a router can have (the width of [`LinkMask`]).
+pub const MAX_LINKS: usize = 64;
+
+/// How long a learned route lives without traffic by default: 10 s.
+pub const DEFAULT_ROUTE_TTL_US: u64 = 10_000_000;
+
+/// Signing streams each link with [`LinkConfig::require_signing`] remembers.
+pub const SIGNING_STREAMS: usize = 8;
+
+/// A set of byte values (system or component ids).
+#[derive(Clone, Copy, PartialEq, Eq, Default)]
+pub struct ByteSet([u64; 4]);
+
+impl ByteSet {
+    /// The empty set.
+    pub const EMPTY: Self = Self([0; 4]);
+
+    /// Adds `value`.
+    pub fn insert(&mut self, value: u8) {
+        if let Some(word) = self.0.get_mut(usize::from(value >> 6)) {
+            *word |= 1 << (value & 63);
+        }
+    }
+
+    /// Whether `value` is in the set.
+    pub fn contains(&self, value: u8) -> bool {
+        self.0
+            .get(usize::from(value >> 6))
+            .is_some_and(|word| word & (1 << (value & 63)) != 0)
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(&self) -> bool {
+        self.0 == [0; 4]
+    }
+}
+
+impl fmt::Debug for ByteSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_set()
+            .entries((0..=u8::MAX).filter(|&v| self.contains(v)))
+            .finish()
+    }
+}
+
+impl FromIterator<u8> for ByteSet {
+    fn from_iter<I: IntoIterator<Item = u8>>(iter: I) -> Self {
+        let mut set = Self::EMPTY;
+        for v in iter {
+            set.insert(v);
+        }
+        set
+    }
+}
+
+/// How many message ids one [`IdSet`] holds.
+pub const ID_SET_CAPACITY: usize = 32;
+
+/// A small set of message ids.
+#[derive(Clone, Copy, PartialEq, Eq, Default)]
+pub struct IdSet {
+    ids: [u32; ID_SET_CAPACITY],
+    len: u8,
+}
+
+impl IdSet {
+    /// The empty set.
+    pub const EMPTY: Self = Self {
+        ids: [0; ID_SET_CAPACITY],
+        len: 0,
+    };
+
+    /// Adds `id`; gives it back when the set is full.
+    pub fn insert(&mut self, id: u32) -> Result<(), u32> {
+        if self.contains(id) {
+            return Ok(());
+        }
+        match self.ids.get_mut(usize::from(self.len)) {
+            Some(slot) => {
+                *slot = id;
+                self.len += 1;
+                Ok(())
+            }
+            None => Err(id),
+        }
+    }
+
+    /// Whether `id` is in the set.
+    pub fn contains(&self, id: u32) -> bool {
+        self.as_slice().contains(&id)
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The ids, in insertion order.
+    pub fn as_slice(&self) -> &[u32] {
+        self.ids.get(..usize::from(self.len)).unwrap_or_default()
+    }
+}
+
+impl fmt::Debug for IdSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_set().entries(self.as_slice()).finish()
+    }
+}
+
+/// Allow and block lists for one direction of a link. An empty allow list allows everything; a
+/// frame passes when every non-empty allow list has it and no block list does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Filter {
+    /// Message ids to let through (empty: all).
+    pub allow_msg: IdSet,
+    /// Message ids to stop.
+    pub block_msg: IdSet,
+    /// Source systems to let through (empty: all).
+    pub allow_src_sys: ByteSet,
+    /// Source systems to stop.
+    pub block_src_sys: ByteSet,
+    /// Source components to let through (empty: all).
+    pub allow_src_comp: ByteSet,
+    /// Source components to stop.
+    pub block_src_comp: ByteSet,
+}
+
+impl Filter {
+    /// A filter that lets everything through.
+    pub const OPEN: Self = Self {
+        allow_msg: IdSet::EMPTY,
+        block_msg: IdSet::EMPTY,
+        allow_src_sys: ByteSet::EMPTY,
+        block_src_sys: ByteSet::EMPTY,
+        allow_src_comp: ByteSet::EMPTY,
+        block_src_comp: ByteSet::EMPTY,
+    };
+
+    /// Whether a frame with this message id from this source passes.
+    pub fn passes(&self, msg_id: u32, sysid: u8, compid: u8) -> bool {
+        (self.allow_msg.is_empty() || self.allow_msg.contains(msg_id))
+            && !self.block_msg.contains(msg_id)
+            && (self.allow_src_sys.is_empty() || self.allow_src_sys.contains(sysid))
+            && !self.block_src_sys.contains(sysid)
+            && (self.allow_src_comp.is_empty() || self.allow_src_comp.contains(compid))
+            && !self.block_src_comp.contains(compid)
+    }
+}
+
+/// How one link behaves.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct LinkConfig {
+    /// What the link may deliver.
+    pub inbound: Filter,
+    /// What may be sent on the link.
+    pub outbound: Filter,
+    /// Links with the same non-zero group are redundant paths to the same place: they share
+    /// routes, and a frame from one is never sent to another.
+    pub group: u8,
+    /// Drop frames whose exact bytes were seen within this window (0: off).
+    pub dedup_window_us: u64,
+    /// Do not send frames on this link that were received longer ago than this (0: no bound).
+    pub max_delay_us: u64,
+    /// Accept only frames signed with this key (unsigned, badly signed and replayed frames are
+    /// dropped).
+    pub require_signing: Option<SecretKey>,
+    /// Drop frames whose message id is missing from the table. By default they are passed
+    /// through, unchecked (their checksum needs the CRC_EXTRA the table lacks), as broadcasts.
+    pub drop_unknown_ids: bool,
+}
+
+/// Why a frame was not forwarded anywhere, or not to some link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Drop {
+    /// The link requires signing and the frame was not signed.
+    Unsigned,
+    /// The link requires signing and the signature was wrong, or the frame a replay.
+    BadSignature,
+    /// The same bytes came within the deduplication window.
+    Duplicate,
+    /// The inbound filter stopped it.
+    FilteredIn,
+    /// Its target system was seen on no other link.
+    NoRoute,
+    /// Every link it would go to stopped it with an outbound filter or delay bound.
+    FilteredOut,
+}
+
+/// Drop counters, by [`Drop`] reason.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Drops {
+    /// [`Drop::Unsigned`].
+    pub unsigned: u64,
+    /// [`Drop::BadSignature`].
+    pub bad_signature: u64,
+    /// [`Drop::Duplicate`].
+    pub duplicate: u64,
+    /// [`Drop::FilteredIn`].
+    pub filtered_in: u64,
+    /// [`Drop::NoRoute`].
+    pub no_route: u64,
+    /// Copies not sent on this link because of its outbound filter (counted on the link that
+    /// would have sent).
+    pub filtered_out: u64,
+    /// Copies not sent on this link because they were older than its delay bound.
+    pub late: u64,
+}
+
+impl Drops {
+    fn count(&mut self, why: Drop) {
+        match why {
+            Drop::Unsigned => self.unsigned += 1,
+            Drop::BadSignature => self.bad_signature += 1,
+            Drop::Duplicate => self.duplicate += 1,
+            Drop::FilteredIn => self.filtered_in += 1,
+            Drop::NoRoute => self.no_route += 1,
+            Drop::FilteredOut => {}
+        }
+    }
+
+    /// Every frame dropped on the way in (not the per-copy outbound counts).
+    pub fn inbound(&self) -> u64 {
+        self.unsigned + self.bad_signature + self.duplicate + self.filtered_in + self.no_route
+    }
+}
+
+/// Counters of one link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct LinkCounters {
+    /// Frames received (passed their checksum, or unknown ids passed through).
+    pub rx_frames: u64,
+    /// Bytes of those frames.
+    pub rx_bytes: u64,
+    /// Frames routed out on this link.
+    pub tx_frames: u64,
+    /// Bytes of those frames.
+    pub tx_bytes: u64,
+    /// Frames with unknown ids received (forwarded unchecked).
+    pub unchecked: u64,
+    /// Candidates that failed their checksum.
+    pub crc_failures: u64,
+    /// Bytes the parser skipped: noise and rejected candidates.
+    pub garbage_bytes: u64,
+    /// Drops, by reason.
+    pub drops: Drops,
+}
+
+/// Counters of one source (system, component), over every link: sequence loss is counted per
+/// source, so several systems sharing a link do not blur each other's figures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SourceCounters {
+    /// System id.
+    pub sysid: u8,
+    /// Component id.
+    pub compid: u8,
+    /// Frames received from the source (after inbound checks).
+    pub rx_frames: u64,
+    /// Bytes of those frames.
+    pub rx_bytes: u64,
+    /// Copies of its frames sent out.
+    pub tx_frames: u64,
+    /// Frames missing by the sequence numbers.
+    pub lost: u64,
+    /// The last sequence number seen.
+    pub last_seq: u8,
+    /// When the source was last heard, in the caller's microseconds.
+    pub last_seen_us: u64,
+}
+
+/// Counters of the router as a whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RouterCounters {
+    /// Routes forgotten to make room for a new one.
+    pub routes_evicted: u64,
+    /// Routes forgotten because they aged out.
+    pub routes_expired: u64,
+    /// Sources forgotten to make room for a new one.
+    pub sources_evicted: u64,
+}
+
+/// A learned route: `(sysid, compid)` was heard on `link`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Route {
+    /// System id.
+    pub sysid: u8,
+    /// Component id.
+    pub compid: u8,
+    /// The link.
+    pub link: usize,
+    /// When it was last heard there.
+    pub last_seen_us: u64,
+}
+
+/// One frame a link delivered and what the router decided.
+#[derive(Debug, Clone, Copy)]
+pub struct Routed<'a> {
+    /// The link it came from.
+    pub from: usize,
+    /// The frame as received, signature included: forward exactly these bytes.
+    pub bytes: &'a [u8],
+    /// The parsed frame.
+    pub frame: ParsedFrame<'a>,
+    /// The links to send it to (empty when dropped).
+    pub to: LinkMask,
+    /// Why it goes nowhere, if it was dropped as a whole.
+    pub dropped: Option<Drop>,
+}
+
+#[derive(Debug, Clone, Default)]
+struct Link {
+    open: bool,
+    config: LinkConfig,
+    verifier: Option<Verifier<SIGNING_STREAMS>>,
+    counters: LinkCounters,
+}
+
+#[derive(Debug, Clone, Copy, Default)]
+struct Seen {
+    key: u32,
+    at_us: u64,
+    used: bool,
+}
+
+/// The router: `L` links, `R` routes, `S` sources and `D` remembered frames for deduplication.
+///
+/// The defaults suit a small radio; the daemon uses larger tables. `L` is at most
+/// [`MAX_LINKS`]; a larger `L` fails to compile:
+///
+/// ```compile_fail
+/// # use ferrolink_runtime::mavlink::router::Router;
+/// let r: Router<65> = Router::new(&[]);
+/// ```
+#[derive(Debug, Clone)]
+pub struct Router<const L: usize = 4, const R: usize = 32, const S: usize = 32, const D: usize = 64>
+{
+    parsers: [Parser; L],
+    /// Parser counters already added to the link counters.
+    parsed: [ParserStats; L],
+    state: State<L, R, S, D>,
+}
+
+/// Everything but the parsers, so a frame borrowed from a parser can be routed in place.
+#[derive(Debug, Clone)]
+struct State<const L: usize, const R: usize, const S: usize, const D: usize> {
+    table: &'static [MessageMeta],
+    links: [Link; L],
+    routes: [Option<Route>; R],
+    sources: [Option<SourceCounters>; S],
+    seen: [Seen; D],
+    seen_next: usize,
+    route_ttl_us: u64,
+    counters: RouterCounters,
+}
+
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+impl<const L: usize, const R: usize, const S: usize, const D: usize> Router<L, R, S, D> {
+    const LINKS_FIT_THE_MASK: () = assert!(L <= MAX_LINKS, "Router<L> needs L <= 64");
+
+    /// A router checking frames against `table` (sorted by id, as a dialect's `META` is), with
+    /// no links open.
+    pub fn new(table: &'static [MessageMeta]) -> Self {
+        #[allow(clippy::let_unit_value)]
+        let () = Self::LINKS_FIT_THE_MASK;
+        Self {
+            parsers: core::array::from_fn(|_| Parser::new(table)),
+            parsed: [ParserStats::default(); L],
+            state: State {
+                table,
+                links: core::array::from_fn(|_| Link::default()),
+                routes: [None; R],
+                sources: [None; S],
+                seen: [Seen::default(); D],
+                seen_next: 0,
+                route_ttl_us: DEFAULT_ROUTE_TTL_US,
+                counters: RouterCounters::default(),
+            },
+        }
+    }
+
+    /// The message table.
+    pub fn table(&self) -> &'static [MessageMeta] {
+        self.state.table
+    }
+
+    /// How long a route lives without traffic (0: forever).
+    pub fn set_route_ttl_us(&mut self, ttl: u64) {
+        self.state.route_ttl_us = ttl;
+    }
+
+    /// Opens a link in the first free slot and returns its index, or `None` when all `L` are in
+    /// use. Its counters start at zero.
+    pub fn open_link(&mut self, config: LinkConfig) -> Option<usize> {
+        let index = self.state.links.iter().position(|l| !l.open)?;
+        let parser = self.parsers.get_mut(index)?;
+        *parser = Parser::new(self.state.table).pass_unknown_ids(!config.drop_unknown_ids);
+        *self.parsed.get_mut(index)? = ParserStats::default();
+        *self.state.links.get_mut(index)? = Link {
+            open: true,
+            verifier: config.require_signing.clone().map(Verifier::new),
+            config,
+            counters: LinkCounters::default(),
+        };
+        Some(index)
+    }
+
+    /// Closes link `index`: its routes are forgotten and its parser's buffer dropped. Its
+    /// counters stay readable until the slot is opened again.
+    pub fn close_link(&mut self, index: usize) {
+        if let Some(parser) = self.parsers.get_mut(index) {
+            parser.reset();
+        }
+        self.sync_parser_counters(index);
+        if let Some(link) = self.state.links.get_mut(index) {
+            link.open = false;
+        }
+        for slot in &mut self.state.routes {
+            if slot.is_some_and(|r| r.link == index) {
+                *slot = None;
+            }
+        }
+    }
+
+    /// Whether link `index` is open.
+    pub fn is_open(&self, index: usize) -> bool {
+        self.state.links.get(index).is_some_and(|l| l.open)
+    }
+
+    /// The configuration of link `index`.
+    pub fn link_config(&self, index: usize) -> Option<&LinkConfig> {
+        self.state.links.get(index).map(|l| &l.config)
+    }
+
+    /// The counters of link `index`.
+    pub fn link_counters(&self, index: usize) -> Option<&LinkCounters> {
+        self.state.links.get(index).map(|l| &l.counters)
+    }
+
+    /// The router's own counters.
+    pub fn counters(&self) -> &RouterCounters {
+        &self.state.counters
+    }
+
+    /// The sources heard so far.
+    pub fn sources(&self) -> impl Iterator<Item = &SourceCounters> + '_ {
+        self.state.sources.iter().flatten()
+    }
+
+    /// The routes learned and not yet aged out (as of the last [`Router::receive`] or
+    /// [`Router::expire`]).
+    pub fn routes(&self) -> impl Iterator<Item = &Route> + '_ {
+        self.state.routes.iter().flatten()
+    }
+
+    /// Forgets routes not heard for longer than the route lifetime.
+    pub fn expire(&mut self, now_us: u64) {
+        self.state.expire(now_us);
+    }
+
+    /// Feeds bytes that arrived on link `from` at `rx_us` and calls `on_frame` for every frame
+    /// they complete, with the routing decision. `now_us` is the current time in the same
+    /// microseconds (for delay bounds and route ages; signing checks read `rx_us` as Unix time).
+    /// Bytes for a closed or unknown link are ignored.
+    pub fn receive(
+        &mut self,
+        from: usize,
+        bytes: &[u8],
+        rx_us: u64,
+        now_us: u64,
+        mut on_frame: impl FnMut(Routed<'_>),
+    ) {
+        if !self.is_open(from) {
+            return;
+        }
+        let Some(parser) = self.parsers.get_mut(from) else {
+            return;
+        };
+        let mut input = bytes;
+        while let Feed::Frame { frame, remaining } = parser.feed(input) {
+            input = remaining;
+            let (to, dropped) = self.state.decide(from, &frame, rx_us, now_us);
+            on_frame(Routed {
+                from,
+                bytes: frame.as_bytes(),
+                frame,
+                to,
+                dropped,
+            });
+        }
+        self.sync_parser_counters(from);
+    }
+
+    /// Adds what the parser of link `index` counted since the last time to its counters.
+    fn sync_parser_counters(&mut self, index: usize) {
+        let (Some(parser), Some(parsed), Some(link)) = (
+            self.parsers.get(index),
+            self.parsed.get_mut(index),
+            self.state.links.get_mut(index),
+        ) else {
+            return;
+        };
+        let now = *parser.stats();
+        let c = &mut link.counters;
+        c.crc_failures += now.bad_crc - parsed.bad_crc;
+        c.garbage_bytes +=
+            (now.garbage_bytes + now.rejected()) - (parsed.garbage_bytes + parsed.rejected());
+        *parsed = now;
+    }
+}
+
+impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R, S, D> {
+    fn expire(&mut self, now_us: u64) {
+        if self.route_ttl_us == 0 {
+            return;
+        }
+        for slot in &mut self.routes {
+            if slot.is_some_and(|r| now_us.saturating_sub(r.last_seen_us) > self.route_ttl_us) {
+                *slot = None;
+                self.counters.routes_expired += 1;
+            }
+        }
+    }
+
+    /// Applies the rules to one frame from link `from`.
+    fn decide(
+        &mut self,
+        from: usize,
+        frame: &ParsedFrame<'_>,
+        rx_us: u64,
+        now_us: u64,
+    ) -> (LinkMask, Option<Drop>) {
+        let header = frame.header();
+        let bytes = frame.as_bytes();
+        let len = bytes.len() as u64;
+        let Some(link) = self.links.get_mut(from) else {
+            return (0, None);
+        };
+        link.counters.rx_frames += 1;
+        link.counters.rx_bytes += len;
+        if !frame.is_checked() {
+            link.counters.unchecked += 1;
+        }
+        if let Err(why) = link.check_signature(frame, rx_us) {
+            return self.drop_frame(from, why);
+        }
+        let (dedup_window, inbound) = (link.config.dedup_window_us, link.config.inbound);
+        if dedup_window > 0 && self.is_duplicate(bytes, rx_us, dedup_window) {
+            return self.drop_frame(from, Drop::Duplicate);
+        }
+        if !inbound.passes(frame.msg_id(), header.sysid, header.compid) {
+            return self.drop_frame(from, Drop::FilteredIn);
+        }
+
+        self.count_source(header.sysid, header.compid, header.seq, len, rx_us);
+        self.learn(header.sysid, header.compid, from, rx_us);
+        self.expire(now_us);
+
+        let candidates = match target(frame) {
+            None | Some((0, _)) => self.open_mask(),
+            Some((sysid, compid)) => self.links_for(sysid, compid),
+        };
+        let candidates = candidates & !((1 << from) | self.group_mask(from));
+        if candidates == 0 {
+            return self.drop_frame(from, Drop::NoRoute);
+        }
+        let mut to: LinkMask = 0;
+        let age = now_us.saturating_sub(rx_us);
+        for (i, link) in self.links.iter_mut().enumerate() {
+            if candidates & (1 << i) == 0 {
+                continue;
+            }
+            let config = &link.config;
+            if !config
+                .outbound
+                .passes(frame.msg_id(), header.sysid, header.compid)
+            {
+                link.counters.drops.filtered_out += 1;
+                continue;
+            }
+            if config.max_delay_us > 0 && age > config.max_delay_us {
+                link.counters.drops.late += 1;
+                continue;
+            }
+            link.counters.tx_frames += 1;
+            link.counters.tx_bytes += len;
+            to |= 1 << i;
+        }
+        if let Some(source) = self.source_mut(header.sysid, header.compid) {
+            source.tx_frames += u64::from(to.count_ones());
+        }
+        if to == 0 {
+            return (0, Some(Drop::FilteredOut));
+        }
+        (to, None)
+    }
+
+    fn drop_frame(&mut self, from: usize, why: Drop) -> (LinkMask, Option<Drop>) {
+        if let Some(link) = self.links.get_mut(from) {
+            link.counters.drops.count(why);
+        }
+        (0, Some(why))
+    }
+
+    /// Whether these exact bytes were seen within `window`; remembers them if not.
+    fn is_duplicate(&mut self, bytes: &[u8], now_us: u64, window: u64) -> bool {
+        let key = CRC32.checksum(bytes);
+        let hit = self
+            .seen
+            .iter()
+            .any(|s| s.used && s.key == key && now_us.saturating_sub(s.at_us) <= window);
+        if !hit && D > 0 {
+            if let Some(slot) = self.seen.get_mut(self.seen_next % D) {
+                *slot = Seen {
+                    key,
+                    at_us: now_us,
+                    used: true,
+                };
+            }
+            self.seen_next = (self.seen_next + 1) % D;
+        }
+        hit
+    }
+
+    fn open_mask(&self) -> LinkMask {
+        self.links
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.open)
+            .fold(0, |m, (i, _)| m | (1 << i))
+    }
+
+    /// The open links in `index`'s group (none for group 0).
+    fn group_mask(&self, index: usize) -> LinkMask {
+        let group = match self.links.get(index) {
+            Some(l) if l.config.group != 0 => l.config.group,
+            _ => return 0,
+        };
+        self.links
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.open && l.config.group == group)
+            .fold(0, |m, (i, _)| m | (1 << i))
+    }
+
+    /// The links a frame for `(sysid, compid)` goes to, groups expanded.
+    fn links_for(&self, sysid: u8, compid: u8) -> LinkMask {
+        let mut exact: LinkMask = 0;
+        let mut system: LinkMask = 0;
+        for r in self.routes.iter().flatten() {
+            if r.sysid == sysid {
+                system |= 1 << r.link;
+                if r.compid == compid {
+                    exact |= 1 << r.link;
+                }
+            }
+        }
+        let mask = if compid != 0 && exact != 0 {
+            exact
+        } else {
+            system
+        };
+        (0..L)
+            .filter(|i| mask & (1 << i) != 0)
+            .fold(mask, |m, i| m | self.group_mask(i))
+    }
+
+    fn learn(&mut self, sysid: u8, compid: u8, link: usize, now_us: u64) {
+        if let Some(route) = self
+            .routes
+            .iter_mut()
+            .flatten()
+            .find(|r| (r.sysid, r.compid, r.link) == (sysid, compid, link))
+        {
+            route.last_seen_us = now_us;
+            return;
+        }
+        let route = Route {
+            sysid,
+            compid,
+            link,
+            last_seen_us: now_us,
+        };
+        if insert_or_evict(&mut self.routes, route, |r| r.last_seen_us) {
+            self.counters.routes_evicted += 1;
+        }
+    }
+
+    fn source_mut(&mut self, sysid: u8, compid: u8) -> Option<&mut SourceCounters> {
+        self.sources
+            .iter_mut()
+            .flatten()
+            .find(|s| (s.sysid, s.compid) == (sysid, compid))
+    }
+
+    fn count_source(&mut self, sysid: u8, compid: u8, seq: u8, len: u64, now_us: u64) {
+        if let Some(source) = self.source_mut(sysid, compid) {
+            // A step back (reordering, or a duplicate that was not suppressed) is no loss.
+            let gap = seq.wrapping_sub(source.last_seq.wrapping_add(1));
+            if gap < 128 {
+                source.lost += u64::from(gap);
+                source.last_seq = seq;
+            }
+            source.rx_frames += 1;
+            source.rx_bytes += len;
+            source.last_seen_us = now_us;
+            return;
+        }
+        let fresh = SourceCounters {
+            sysid,
+            compid,
+            rx_frames: 1,
+            rx_bytes: len,
+            tx_frames: 0,
+            lost: 0,
+            last_seq: seq,
+            last_seen_us: now_us,
+        };
+        if insert_or_evict(&mut self.sources, fresh, |s| s.last_seen_us) {
+            self.counters.sources_evicted += 1;
+        }
+    }
+}
+
+impl Link {
+    /// The signing checks of a link that requires signing.
+    fn check_signature(&mut self, frame: &ParsedFrame<'_>, rx_us: u64) -> Result<(), Drop> {
+        let Some(verifier) = &mut self.verifier else {
+            return Ok(());
+        };
+        let Some(v2) = frame.as_v2() else {
+            return Err(Drop::Unsigned);
+        };
+        match verifier.verify(v2, timestamp_from_unix_micros(rx_us)) {
+            Ok(()) => Ok(()),
+            Err(VerifyError::Unsigned) => Err(Drop::Unsigned),
+            Err(_) => Err(Drop::BadSignature),
+        }
+    }
+}
+
+/// Puts `item` into the first free slot, or in place of the one with the smallest `age` key;
+/// returns whether something was evicted.
+fn insert_or_evict<T: Copy>(slots: &mut [Option<T>], item: T, age: impl Fn(&T) -> u64) -> bool {
+    if let Some(slot) = slots.iter_mut().find(|s| s.is_none()) {
+        *slot = Some(item);
+        return false;
+    }
+    match slots.iter_mut().min_by_key(|s| s.as_ref().map_or(0, &age)) {
+        Some(oldest) => {
+            *oldest = Some(item);
+            true
+        }
+        None => false,
+    }
+}
+
+/// The target of an addressed message: `(target_system, target_component)`, the component 0
+/// when the message has none. `None` for a message without target or an unknown id.
+fn target(frame: &ParsedFrame<'_>) -> Option<(u8, u8)> {
+    let meta = frame.meta()?;
+    let payload = frame.payload();
+    // A truncated payload lost trailing zeros: a target beyond its end is 0.
+    let at = |offset: Option<u8>| offset.map(|o| payload.get(usize::from(o)).copied().unwrap_or(0));
+    let system = at(meta.target_system)?;
+    Some((system, at(meta.target_component).unwrap_or(0)))
+}
