@@ -30,7 +30,7 @@ pub mod frontend;
 pub mod ident;
 pub mod ir;
 pub mod lower;
-#[cfg(feature = "cli")]
+#[cfg(feature = "traffic")]
 pub mod traffic;
 pub mod write;
 

@@ -29,6 +29,8 @@ use std::fs::{self, File};
 use std::io::{self, BufWriter};
 use std::path::{Path, PathBuf};
 
+use ferrolink_runtime::mavlink::MessageMeta;
+
 use crate::ir::{Enum, Field, Ir, Message, Primitive};
 
 /// One decoded value.
@@ -422,6 +424,110 @@ impl CsvExport {
         }
         Ok(out)
     }
+}
+
+/// The message table a parser or router needs ([`MessageMeta`] per message, sorted by id),
+/// built from the IR at run time.
+///
+/// If several modules define an id, the later one wins, as in [`PayloadDecoder::new`]. The table
+/// and its names are leaked to get the `'static` lifetime the runtime's parsers take: call this
+/// once per dictionary set a program loads, not per frame.
+pub fn message_table(ir: &Ir) -> &'static [MessageMeta] {
+    let mut by_id: BTreeMap<u32, MessageMeta> = BTreeMap::new();
+    for message in ir.modules.iter().flat_map(|m| &m.messages) {
+        let offset = |o: Option<usize>| o.and_then(|o| u8::try_from(o).ok());
+        by_id.insert(
+            message.id,
+            MessageMeta {
+                id: message.id,
+                name: Box::leak(message.name.wire.clone().into_boxed_str()),
+                crc_extra: message.crc_extra,
+                min_len: u8::try_from(message.min_len).unwrap_or(u8::MAX),
+                max_len: u8::try_from(message.max_len).unwrap_or(u8::MAX),
+                target_system: offset(message.target_system),
+                target_component: offset(message.target_component),
+            },
+        );
+    }
+    Box::leak(by_id.into_values().collect::<Vec<_>>().into_boxed_slice())
+}
+
+impl PayloadDecoder<'_> {
+    /// Decodes `payload` as message `id` into pymavlink's `to_dict()` form, as pymavlink 2.4.50
+    /// prints it: `{"mavpackettype": NAME, field: value, ...}` in XML order, extensions included,
+    /// a short payload zero-filled.
+    ///
+    /// - integers as JSON integers (enums too), floats as the exact double of their value (`NaN`
+    ///   and infinities, which JSON cannot hold, as `null`);
+    /// - arrays as lists;
+    /// - `char` fields and `char[N]` arrays as text: trailing NULs removed, then decoded as
+    ///   UTF-8 with each invalid byte written as `\xNN` (Python's `backslashreplace`).
+    ///
+    /// `None` if the id is unknown.
+    pub fn to_dict(&self, id: u32, payload: &[u8]) -> Option<serde_json::Value> {
+        use serde_json::{Map, Value as Json};
+        let message = self.message(id)?;
+        let mut buf = vec![0u8; message.max_len];
+        let n = payload.len().min(buf.len());
+        buf[..n].copy_from_slice(&payload[..n]);
+        let number = |primitive: Primitive, bytes: &[u8]| -> Json {
+            match scalar(primitive, bytes) {
+                Value::Unsigned(v) => Json::from(v),
+                Value::Signed(v) => Json::from(v),
+                // `scalar` widens through the shortest decimal; pymavlink widens exactly.
+                Value::Float(_) if primitive == Primitive::F32 => {
+                    let mut raw = [0u8; 4];
+                    raw.copy_from_slice(bytes);
+                    Json::from(f64::from(f32::from_le_bytes(raw)))
+                }
+                Value::Float(v) => Json::from(v),
+                Value::Text(_) => Json::Null,
+            }
+        };
+        let mut dict = Map::new();
+        dict.insert("mavpackettype".into(), message.name.wire.clone().into());
+        for field in &message.fields {
+            let primitive = field.ty.primitive;
+            let bytes = &buf[field.offset..field.offset + field.ty.size()];
+            let value = match field.ty.array {
+                _ if primitive == Primitive::Char => Json::from(python_text(bytes)),
+                None => number(primitive, bytes),
+                Some(_) => bytes
+                    .chunks_exact(primitive.size())
+                    .map(|element| number(primitive, element))
+                    .collect(),
+            };
+            dict.insert(field.name.wire.clone(), value);
+        }
+        Some(Json::Object(dict))
+    }
+}
+
+/// `char` bytes as pymavlink 2.4.50 shows them: trailing NULs stripped, then UTF-8 with every
+/// byte of an invalid sequence written as `\xNN`.
+fn python_text(bytes: &[u8]) -> String {
+    let end = bytes.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1);
+    let mut rest = &bytes[..end];
+    let mut out = String::new();
+    while !rest.is_empty() {
+        match std::str::from_utf8(rest) {
+            Ok(text) => {
+                out.push_str(text);
+                break;
+            }
+            Err(e) => {
+                let (good, bad) = rest.split_at(e.valid_up_to());
+                out.push_str(std::str::from_utf8(good).unwrap_or_default());
+                let skip = e.error_len().unwrap_or(bad.len());
+                for b in &bad[..skip] {
+                    // Writing to a String cannot fail.
+                    let _ = write!(out, "\\x{b:02x}");
+                }
+                rest = &bad[skip..];
+            }
+        }
+    }
+    out
 }
 
 #[cfg(test)]

@@ -61,7 +61,9 @@ use std::io;
 use std::time::Duration;
 
 pub mod bridge;
+pub mod mavlink;
 pub mod modrob;
+pub mod peers;
 mod serial;
 mod tcp;
 pub mod tosnet;

@@ -414,6 +414,24 @@ impl<const N: usize> Parser<N> {
         n
     }
 
+    /// Judges the one frame that starts at `bytes[0]`, without searching or buffering: for
+    /// input whose frame boundaries are known, such as the records of a telemetry log. Counts
+    /// nothing. `None` unless a whole frame that this parser would accept starts there.
+    pub fn parse_at<'a>(&self, bytes: &'a [u8]) -> Option<ParsedFrame<'a>> {
+        if !bytes.first().is_some_and(|&b| is_magic(b)) {
+            return None;
+        }
+        let Eval::Accept { len, meta } = self.evaluate(bytes) else {
+            return None;
+        };
+        let bytes = bytes.get(..len)?;
+        let frame = match bytes.first() {
+            Some(&v1::MAGIC) => AnyFrame::V1(v1::Frame::new_unchecked(bytes)),
+            _ => AnyFrame::V2(v2::Frame::new_unchecked(bytes)),
+        };
+        Some(ParsedFrame { frame, meta })
+    }
+
     /// Appends `bytes` to the buffered candidate, which will need `need` bytes in all, moving it
     /// to the front of the buffer first if it would not fit.
     fn append(&mut self, need: usize, bytes: &[u8]) {

@@ -116,6 +116,7 @@ impl Links {
             run_for: seconds(self.run_for)?,
             json: self.json,
             commands: !self.no_commands,
+            messages: crate::dialect::Dialects::own()?.table,
             ..Default::default()
         })
     }

@@ -1,6 +1,8 @@
 //! `ferrolink`: generate bindings (MAVLink XML dialects, TosNet register maps), check
 //! dictionaries, dump the IR, and work with NDLCom traffic and ModRob-1 messages.
 
+mod dialect;
+mod mavlink;
 mod modrob;
 mod ndlcom;
 mod tosnet;
@@ -53,6 +55,9 @@ enum Command {
         #[arg(long, value_name = "CARRIER")]
         carrier: Vec<ferrolink_codegen::Carrier>,
     },
+    /// MAVLink: route between endpoints, dump telemetry logs.
+    #[command(subcommand)]
+    Mavlink(mavlink::Command),
     /// NDLCom frames: encode, decode, bridge, log, export.
     #[command(subcommand)]
     Ndlcom(ndlcom::Command),
@@ -172,6 +177,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 }
             }
         }
+        Command::Mavlink(command) => mavlink::run(command),
         Command::Ndlcom(command) => ndlcom::run(command),
         Command::Modrob(command) => modrob::run(command),
         Command::Tosnet(command) => tosnet::run(command),

@@ -1,0 +1,74 @@
+//! The MAVLink dictionaries a command knows: the files given with `--dialect`, loaded through
+//! the generator's frontend at start, or else our own definitions, built into the binary.
+//!
+//! Nothing here uses generated bindings, so the CLI keeps working (and can regenerate
+//! `generated/`) even when the checked-in bindings do not compile.
+
+use std::path::PathBuf;
+
+use ferrolink_codegen::ir::Ir;
+use ferrolink_codegen::traffic::{message_table, PayloadDecoder};
+use ferrolink_runtime::mavlink::MessageMeta;
+
+/// Our own MAVLink definitions (`definitions/mavlink/`), as built into the binary.
+const OWN: &[(&str, &str)] = &[
+    (
+        "minimal.xml",
+        include_str!("../../definitions/mavlink/minimal.xml"),
+    ),
+    ("usv.xml", include_str!("../../definitions/mavlink/usv.xml")),
+    (
+        "bench.xml",
+        include_str!("../../definitions/mavlink/bench.xml"),
+    ),
+];
+
+/// Loaded dictionaries: the IR, for decoding, and the message table, for parsers and routers.
+#[derive(Debug)]
+pub struct Dialects {
+    /// The checked IR.
+    pub ir: Ir,
+    /// Every message, sorted by id.
+    pub table: &'static [MessageMeta],
+}
+
+impl Dialects {
+    /// Loads `files`, or our own definitions when there are none. Warnings are printed to
+    /// stderr; errors (all of them, with file:line:col) make this fail.
+    pub fn load(files: &[PathBuf]) -> Result<Self, String> {
+        if files.is_empty() {
+            return Self::own();
+        }
+        let checked = ferrolink_codegen::load(files).map_err(|failed| failed.to_string())?;
+        for w in &checked.warnings {
+            eprintln!("{w}\n");
+        }
+        let table = message_table(&checked.ir);
+        Ok(Self {
+            ir: checked.ir,
+            table,
+        })
+    }
+
+    /// Our own definitions.
+    pub fn own() -> Result<Self, String> {
+        let dir = tempfile::tempdir().map_err(|e| format!("a temporary directory: {e}"))?;
+        let mut files = Vec::new();
+        for (name, text) in OWN {
+            let path = dir.path().join(name);
+            std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+            files.push(path);
+        }
+        let checked = ferrolink_codegen::load(&files).map_err(|failed| failed.to_string())?;
+        let table = message_table(&checked.ir);
+        Ok(Self {
+            ir: checked.ir,
+            table,
+        })
+    }
+
+    /// A decoder for payloads of these dictionaries.
+    pub fn decoder(&self) -> PayloadDecoder<'_> {
+        PayloadDecoder::new(&self.ir)
+    }
+}

@@ -1,0 +1,166 @@
+//! `ferrolink mavlink`: the router daemon and the log tools.
+
+use std::io::{self, BufWriter, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use clap::Subcommand;
+use ferrolink_io::mavlink::{router, tlog};
+use ferrolink_io::peers::Endpoint;
+
+use crate::dialect::Dialects;
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Route MAVLink between endpoints: every UDP peer and TCP client is a link of its own.
+    Router {
+        /// Dialect XML whose messages the router knows (CRC_EXTRA, targets); repeatable.
+        /// Without it, our own definitions.
+        #[arg(long, value_name = "FILE.xml")]
+        dialect: Vec<PathBuf>,
+        /// Log every frame received (passed its CRC, or an unknown id) to this .tlog.
+        #[arg(long, value_name = "FILE")]
+        tlog: Option<PathBuf>,
+        /// Write statistics as one JSON object per line, every second and at exit.
+        #[arg(long, value_name = "FILE")]
+        stats_json: Option<PathBuf>,
+        /// Print a statistics table every SECS seconds.
+        #[arg(long, value_name = "SECS")]
+        stats: Option<f64>,
+        /// Stop after SECS seconds (SIGINT and SIGTERM stop it too, all with status 0).
+        #[arg(long, value_name = "SECS")]
+        run_for: Option<f64>,
+        /// Forget a UDP peer quiet for SECS seconds.
+        #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+        peer_expiry: f64,
+        /// Drop frames whose exact bytes came within MS milliseconds (redundant links).
+        #[arg(long, value_name = "MS", default_value_t = 0)]
+        dedup_ms: u64,
+        /// udpin://HOST:PORT | udpout://HOST:PORT | tcpin://HOST:PORT | tcpout://HOST:PORT |
+        /// serial://PATH[:BAUD]
+        #[arg(required = true, value_name = "ENDPOINT")]
+        endpoints: Vec<String>,
+    },
+    /// Print a .tlog (or a raw capture) as JSON lines in pymavlink's to_dict() form.
+    Dump {
+        /// Dialect XML to decode with; repeatable. Without it, our own definitions.
+        #[arg(long, value_name = "FILE.xml")]
+        dialect: Vec<PathBuf>,
+        /// The file is raw link bytes, without timestamps.
+        #[arg(long)]
+        raw: bool,
+        /// The log.
+        file: PathBuf,
+    },
+}
+
+fn seconds(s: f64) -> Result<Duration, String> {
+    Duration::try_from_secs_f64(s).map_err(|e| format!("{s} seconds: {e}"))
+}
+
+pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    match command {
+        Command::Router {
+            dialect,
+            tlog,
+            stats_json,
+            stats,
+            run_for,
+            peer_expiry,
+            dedup_ms,
+            endpoints,
+        } => {
+            let endpoints = endpoints
+                .iter()
+                .map(|e| e.parse::<Endpoint>())
+                .collect::<Result<Vec<_>, _>>()?;
+            let dialects = Dialects::load(&dialect)?;
+            let config = router::Config {
+                endpoints,
+                table: dialects.table,
+                tlog,
+                stats_json,
+                stats_every: stats.map(seconds).transpose()?,
+                run_for: run_for.map(seconds).transpose()?,
+                peer_expiry: Some(seconds(peer_expiry)?),
+                dedup_window_us: dedup_ms.saturating_mul(1000),
+            };
+            let stop = Arc::new(AtomicBool::new(false));
+            let flag = stop.clone();
+            ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))?;
+            router::run(&config, &stop)?;
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Dump { dialect, raw, file } => dump(&dialect, raw, &file),
+    }
+}
+
+fn dump(
+    dialect: &[PathBuf],
+    raw: bool,
+    file: &PathBuf,
+) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let dialects = Dialects::load(dialect)?;
+    let decoder = dialects.decoder();
+    let data = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let mut out = BufWriter::new(io::stdout().lock());
+    let mut decoded = 0u64;
+    let mut unknown = 0u64;
+    let mut failed: Option<io::Error> = None;
+    let mut print = |record: tlog::Record<'_>| {
+        let frame = &record.frame;
+        let header = frame.header();
+        let t_us = record
+            .t_us
+            .map_or_else(|| "null".to_owned(), |t| t.to_string());
+        let msg = match decoder.to_dict(frame.msg_id(), frame.payload()) {
+            Some(dict) => {
+                decoded += 1;
+                format!("\"msg\":{dict}")
+            }
+            None => {
+                unknown += 1;
+                format!(
+                    "\"msg\":null,\"id\":{},\"payload\":\"{}\"",
+                    frame.msg_id(),
+                    hex::encode(frame.payload())
+                )
+            }
+        };
+        let line = format!(
+            "{{\"t_us\":{t_us},\"sysid\":{},\"compid\":{},\"seq\":{},{msg}}}",
+            header.sysid, header.compid, header.seq
+        );
+        if failed.is_none() {
+            if let Err(e) = writeln!(out, "{line}") {
+                failed = Some(e);
+            }
+        }
+    };
+    let stats = if raw {
+        tlog::read_raw(&data, dialects.table, &mut print)
+    } else {
+        tlog::read_tlog(&data, dialects.table, &mut print)
+    };
+    if let Some(e) = failed {
+        if e.kind() == io::ErrorKind::BrokenPipe {
+            return Ok(ExitCode::SUCCESS);
+        }
+        return Err(e.into());
+    }
+    writeln!(
+        out,
+        "{}",
+        serde_json::json!({"summary": {
+            "frames": stats.frames, "decoded": decoded, "unknown": unknown,
+            "unchecked": stats.unchecked, "recovered_after_damage": stats.resynced,
+            "bad_crc": stats.bad_crc, "skipped_bytes": stats.skipped_bytes,
+            "truncated_bytes": stats.truncated_bytes,
+        }})
+    )?;
+    out.flush()?;
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,332 @@
+//! MAVLink on PCs: connections from URIs, and telemetry logs.
+//!
+//! ```no_run
+//! use ferrolink_io::mavlink::Connection;
+//! # use ferrolink_runtime::mavlink::MessageMeta;
+//! # static META: &[MessageMeta] = &[];
+//! // A simulator or autopilot sending to UDP port 14550 (pymavlink's `udpin:0.0.0.0:14550`
+//! // works too). With generated bindings, pass `Message::META` of the dialect.
+//! let mut vehicle = Connection::open("udpin://0.0.0.0:14550", META)?;
+//! vehicle.set_ids(255, 190);
+//! while let Some(frame) = vehicle.recv(std::time::Duration::from_secs(1))? {
+//!     println!("{} from {}/{}", frame.msg_id(), frame.header().sysid, frame.header().compid);
+//! }
+//! # Ok::<(), std::io::Error>(())
+//! ```
+
+pub mod router;
+pub mod tlog;
+
+use std::collections::{HashMap, VecDeque};
+use std::io;
+use std::sync::mpsc;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use ferrolink_runtime::mavlink::parser::{Feed, ParsedFrame, Parser};
+use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
+use ferrolink_runtime::mavlink::{
+    v1, v2, AnyFrame, Dialect, Header, Message, MessageMeta, UnknownMessageId, Version,
+};
+
+use crate::peers::{self, Endpoint, Event, PeerId, Sender};
+
+/// Microseconds since the Unix epoch, by the system clock.
+pub fn unix_us() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+}
+
+/// A received frame, owned.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Frame {
+    bytes: Vec<u8>,
+    checked: bool,
+}
+
+impl Frame {
+    fn view(&self) -> AnyFrame<&[u8]> {
+        match AnyFrame::new_checked(self.bytes.as_slice()) {
+            Ok(frame) => frame,
+            // Only frames the parser accepted are stored, so their length is right.
+            Err(_) => AnyFrame::V2(v2::Frame::new_unchecked(&[0; v2::MIN_FRAME_LEN][..])),
+        }
+    }
+
+    /// The frame exactly as received, signature included.
+    pub fn as_bytes(&self) -> &[u8] {
+        &self.bytes
+    }
+
+    /// Sequence number and sender.
+    pub fn header(&self) -> Header {
+        self.view().header()
+    }
+
+    /// The message id.
+    pub fn msg_id(&self) -> u32 {
+        self.view().msg_id()
+    }
+
+    /// MAVLink 1 or 2.
+    pub fn version(&self) -> Version {
+        self.view().version()
+    }
+
+    /// Whether the checksum was verified (false for ids the table lacks).
+    pub fn is_checked(&self) -> bool {
+        self.checked
+    }
+
+    /// Whether it carries a MAVLink 2 signature.
+    pub fn is_signed(&self) -> bool {
+        self.view().is_signed()
+    }
+
+    /// Decodes it as a message of dialect `D`.
+    pub fn decode<D: Dialect>(&self) -> Result<D, UnknownMessageId> {
+        self.view().decode()
+    }
+}
+
+impl From<&ParsedFrame<'_>> for Frame {
+    fn from(frame: &ParsedFrame<'_>) -> Self {
+        Frame {
+            bytes: frame.as_bytes().to_vec(),
+            checked: frame.is_checked(),
+        }
+    }
+}
+
+struct Peer {
+    sender: Sender,
+    parser: Parser,
+}
+
+/// A MAVLink connection on one endpoint URI (see [`crate::peers`] for the forms), blocking.
+///
+/// Frames are received from every peer of the endpoint (each with its own stream parser, so
+/// interleaved peers never corrupt each other) and sent to every peer: on `udpin`, that is every
+/// address heard from in the last 10 s. Sends use the connection's own system and component ids
+/// and sequence numbers counting up, as MAVLink 2 (or 1) frames, signed if a key is set.
+pub struct Connection {
+    uri: Endpoint,
+    table: &'static [MessageMeta],
+    _handle: peers::Handle,
+    events: mpsc::Receiver<Event>,
+    peers: HashMap<PeerId, Peer>,
+    queue: VecDeque<Frame>,
+    sysid: u8,
+    compid: u8,
+    seq: u8,
+    version: Version,
+    signer: Option<Signer>,
+    pass_unknown: bool,
+}
+
+impl std::fmt::Debug for Connection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Connection")
+            .field("uri", &self.uri.to_string())
+            .field("peers", &self.peers.len())
+            .field("sysid", &self.sysid)
+            .field("compid", &self.compid)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Connection {
+    /// Opens `uri`, checking received frames against `table` (a dialect's `META`). Sockets are
+    /// bound before this returns; `tcpout` and `serial` connect in the background and keep
+    /// reconnecting.
+    pub fn open(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
+        let endpoint: Endpoint = uri
+            .parse()
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+        let (tx, events) = mpsc::channel();
+        let handle = peers::open(0, &endpoint, peers::Options::default(), tx)?;
+        Ok(Self {
+            uri: endpoint,
+            table,
+            _handle: handle,
+            events,
+            peers: HashMap::new(),
+            queue: VecDeque::new(),
+            sysid: 255,
+            compid: 190,
+            seq: 0,
+            version: Version::V2,
+            signer: None,
+            pass_unknown: false,
+        })
+    }
+
+    /// The bound local address, for `udpin`, `udpout` and `tcpin` URIs.
+    pub fn local_addr(&self) -> Option<std::net::SocketAddr> {
+        self._handle.local_addr()
+    }
+
+    /// The system and component ids frames are sent from (255/190, a ground station, by
+    /// default).
+    pub fn set_ids(&mut self, sysid: u8, compid: u8) {
+        (self.sysid, self.compid) = (sysid, compid);
+    }
+
+    /// Send MAVLink 1 or 2 (the default) frames.
+    pub fn set_version(&mut self, version: Version) {
+        self.version = version;
+    }
+
+    /// Signs every frame sent with `key` on `link_id`, with timestamps from the system clock.
+    pub fn set_signing(&mut self, key: SecretKey, link_id: u8) {
+        self.signer = Some(Signer::new(key, link_id));
+    }
+
+    /// Hands out frames with ids the table lacks too, unchecked (off by default).
+    pub fn set_pass_unknown_ids(&mut self, pass: bool) {
+        self.pass_unknown = pass;
+        for peer in self.peers.values_mut() {
+            peer.parser.set_pass_unknown_ids(pass);
+        }
+    }
+
+    /// How many peers are connected now.
+    pub fn peers(&self) -> usize {
+        self.peers.len()
+    }
+
+    /// Waits up to `timeout` for a frame. `Ok(None)` when none came in time.
+    pub fn recv(&mut self, timeout: Duration) -> io::Result<Option<Frame>> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(frame) = self.queue.pop_front() {
+                return Ok(Some(frame));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.events.recv_timeout(left) {
+                Ok(event) => self.handle(event),
+                Err(mpsc::RecvTimeoutError::Timeout) => return Ok(None),
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    return Err(io::Error::new(
+                        io::ErrorKind::BrokenPipe,
+                        format!("{}: the endpoint stopped", self.uri),
+                    ))
+                }
+            }
+        }
+    }
+
+    /// Waits up to `timeout` for a message of dialect `D`, skipping frames `D` lacks.
+    pub fn recv_message<D: Dialect>(
+        &mut self,
+        timeout: Duration,
+    ) -> io::Result<Option<(Header, D)>> {
+        let deadline = Instant::now() + timeout;
+        while let Some(frame) = self.recv(deadline.saturating_duration_since(Instant::now()))? {
+            if let Ok(message) = frame.decode::<D>() {
+                return Ok(Some((frame.header(), message)));
+            }
+        }
+        Ok(None)
+    }
+
+    /// Takes in what arrived without waiting (peers appearing and going too).
+    pub fn poll(&mut self) {
+        while let Ok(event) = self.events.try_recv() {
+            self.handle(event);
+        }
+    }
+
+    fn handle(&mut self, event: Event) {
+        match event {
+            Event::Up { peer, sender, .. } => {
+                let parser = Parser::new(self.table).pass_unknown_ids(self.pass_unknown);
+                self.peers.insert(peer, Peer { sender, parser });
+            }
+            Event::Rx { peer, bytes, .. } => {
+                if let Some(p) = self.peers.get_mut(&peer) {
+                    let mut input = bytes.as_slice();
+                    while let Feed::Frame { frame, remaining } = p.parser.feed(input) {
+                        self.queue.push_back(Frame::from(&frame));
+                        input = remaining;
+                    }
+                }
+            }
+            Event::Down { peer, .. } => {
+                self.peers.remove(&peer);
+            }
+        }
+    }
+
+    /// Sends `message` to every peer, from this connection's ids, with the next sequence
+    /// number. Fails if no peer is connected or every write failed.
+    pub fn send<M: Message>(&mut self, message: &M) -> io::Result<()> {
+        let mut payload = [0u8; ferrolink_runtime::mavlink::MAX_PAYLOAD_LEN];
+        let len = message.encode(&mut payload);
+        self.send_raw(
+            M::ID,
+            M::CRC_EXTRA,
+            &payload[..len.min(M::MIN_LEN.max(len))],
+        )
+    }
+
+    /// Sends any message of dialect `D`, as [`Connection::send`] does.
+    pub fn send_dialect<D: Dialect>(&mut self, message: &D) -> io::Result<()> {
+        let mut payload = [0u8; ferrolink_runtime::mavlink::MAX_PAYLOAD_LEN];
+        let len = message.encode(&mut payload);
+        let meta = message.meta();
+        self.send_raw(meta.id, meta.crc_extra, &payload[..len])
+    }
+
+    /// Sends a payload (whole, not truncated) of message `id` with `crc_extra`.
+    pub fn send_raw(&mut self, id: u32, crc_extra: u8, payload: &[u8]) -> io::Result<()> {
+        self.poll();
+        let header = Header::new(self.seq, self.sysid, self.compid);
+        let mut out = [0u8; v2::MAX_FRAME_LEN];
+        let encoded = match (self.version, &mut self.signer) {
+            (Version::V1, _) => {
+                let min = self
+                    .table
+                    .iter()
+                    .find(|m| m.id == id)
+                    .map_or(payload.len(), |m| usize::from(m.min_len));
+                v1::encode_raw(
+                    header,
+                    id,
+                    crc_extra,
+                    &payload[..min.min(payload.len())],
+                    &mut out,
+                )
+            }
+            (Version::V2, Some(signer)) => signer.encode_raw(
+                timestamp_from_unix_micros(unix_us()),
+                header,
+                id,
+                crc_extra,
+                payload,
+                &mut out,
+            ),
+            (Version::V2, None) => v2::encode_raw(header, id, crc_extra, payload, &mut out),
+        };
+        let n = encoded.map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+        self.seq = self.seq.wrapping_add(1);
+        if self.peers.is_empty() {
+            return Err(io::Error::new(
+                io::ErrorKind::NotConnected,
+                format!("{}: no peer yet", self.uri),
+            ));
+        }
+        let mut last_error = None;
+        let mut sent = 0;
+        for peer in self.peers.values() {
+            match peer.sender.send(&out[..n]) {
+                Ok(()) => sent += 1,
+                Err(e) => last_error = Some(e),
+            }
+        }
+        match (sent, last_error) {
+            (0, Some(e)) => Err(e),
+            _ => Ok(()),
+        }
+    }
+}

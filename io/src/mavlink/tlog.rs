@@ -1,0 +1,230 @@
+//! Telemetry logs (`.tlog`), the form every ground station and log tool reads: records of an
+//! 8-byte big-endian timestamp (microseconds since the Unix epoch) followed by one MAVLink frame
+//! exactly as received.
+//!
+//! [`Writer`] writes them: timestamps never decrease, each record goes out whole, and
+//! `SETUP_SIGNING`'s secret key is zeroed (its checksum recomputed), the one change to a frame.
+//! [`read_tlog`] reads them back, record by record, and resynchronises on damage;
+//! [`read_raw`] reads a raw capture of link bytes.
+
+use std::io::{self, Write};
+
+use ferrolink_runtime::crc::mcrf4xx_digest;
+use ferrolink_runtime::mavlink::parser::{Feed, ParsedFrame, Parser};
+use ferrolink_runtime::mavlink::{v1, v2, MessageMeta};
+
+/// `SETUP_SIGNING` (common.xml): id, CRC_EXTRA, and where its `secret_key[32]` lies.
+const SETUP_SIGNING_ID: u32 = 256;
+const SETUP_SIGNING_CRC_EXTRA: u8 = 71;
+const SECRET_KEY: std::ops::Range<usize> = 10..42;
+
+/// Writes `.tlog` records.
+#[derive(Debug)]
+pub struct Writer<W: Write> {
+    out: W,
+    last_us: u64,
+    record: Vec<u8>,
+    /// Records written.
+    pub records: u64,
+}
+
+impl<W: Write> Writer<W> {
+    /// A writer on `out` (wrap files in a `BufWriter`; each record is handed over in one
+    /// `write_all`, so a buffered writer only ever holds whole records).
+    pub fn new(out: W) -> Self {
+        Self {
+            out,
+            last_us: 0,
+            record: Vec::with_capacity(8 + v2::MAX_FRAME_LEN),
+            records: 0,
+        }
+    }
+
+    /// Appends one frame received at `unix_us`. A time earlier than the last one written (the
+    /// wall clock stepped back) is written as the last one.
+    pub fn write(&mut self, unix_us: u64, frame: &[u8]) -> io::Result<()> {
+        self.last_us = self.last_us.max(unix_us);
+        self.record.clear();
+        self.record.extend_from_slice(&self.last_us.to_be_bytes());
+        self.record.extend_from_slice(frame);
+        redact_setup_signing(&mut self.record[8..]);
+        self.out.write_all(&self.record)?;
+        self.records += 1;
+        Ok(())
+    }
+
+    /// Flushes the underlying writer.
+    pub fn flush(&mut self) -> io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// Zeroes the secret key of a `SETUP_SIGNING` frame in place and recomputes its checksum. Other
+/// frames are left alone.
+pub fn redact_setup_signing(frame: &mut [u8]) {
+    let Some((&magic, rest)) = frame.split_first() else {
+        return;
+    };
+    let (head, id) = match magic {
+        v2::MAGIC if rest.len() >= 9 => (
+            v2::HEADER_LEN,
+            u32::from_le_bytes([rest[6], rest[7], rest[8], 0]),
+        ),
+        v1::MAGIC if rest.len() >= 5 => (v1::HEADER_LEN, u32::from(rest[4])),
+        _ => return,
+    };
+    if id != SETUP_SIGNING_ID {
+        return;
+    }
+    let len = usize::from(frame[1]);
+    let Some(payload) = frame.get_mut(head..head + len) else {
+        return;
+    };
+    for b in payload
+        .iter_mut()
+        .skip(SECRET_KEY.start)
+        .take(SECRET_KEY.len())
+    {
+        *b = 0;
+    }
+    let body = head + len;
+    let mut digest = mcrf4xx_digest();
+    digest.update(&frame[1..body]);
+    digest.update(&[SETUP_SIGNING_CRC_EXTRA]);
+    let crc = digest.finalize();
+    if let Some(slot) = frame.get_mut(body..body + 2) {
+        slot.copy_from_slice(&crc.to_le_bytes());
+    }
+}
+
+/// What a reader found besides the frames it handed out.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ReadStats {
+    /// Frames handed out.
+    pub frames: u64,
+    /// Of those, frames with ids the table lacks (unchecked; only at record boundaries).
+    pub unchecked: u64,
+    /// Of those, frames found by searching after damage rather than at a record boundary.
+    pub resynced: u64,
+    /// Bytes skipped: damage, noise, rejected candidates.
+    pub skipped_bytes: u64,
+    /// Candidates rejected for a bad checksum while searching.
+    pub bad_crc: u64,
+    /// Bytes at the end too short for a whole record.
+    pub truncated_bytes: u64,
+}
+
+/// One frame of a log.
+#[derive(Debug, Clone, Copy)]
+pub struct Record<'a> {
+    /// Its timestamp (`None` in a raw capture).
+    pub t_us: Option<u64>,
+    /// Where the frame starts in the input.
+    pub offset: usize,
+    /// The frame.
+    pub frame: ParsedFrame<'a>,
+}
+
+/// Reads a `.tlog` held in memory, calling `on_record` for every frame in order.
+///
+/// A record whose frame is whole and passes its checksum (or has an id `table` lacks) is taken
+/// as it stands. Anything else is damage: the reader then searches for the next frame that
+/// passes its checksum, with the backtracking parser, and takes the 8 bytes before it as its
+/// timestamp.
+pub fn read_tlog<'a>(
+    data: &'a [u8],
+    table: &'static [MessageMeta],
+    mut on_record: impl FnMut(Record<'_>),
+) -> ReadStats {
+    let aligned = Parser::<{ v2::MAX_FRAME_LEN }>::new(table).pass_unknown_ids(true);
+    let mut stats = ReadStats::default();
+    let mut pos = 0;
+    while pos < data.len() {
+        let Some(body) = data.get(pos + 8..) else {
+            stats.truncated_bytes += (data.len() - pos) as u64;
+            break;
+        };
+        let t_us = timestamp(data, pos + 8);
+        if let Some(frame) = aligned.parse_at(body) {
+            stats.frames += 1;
+            stats.unchecked += u64::from(!frame.is_checked());
+            on_record(Record {
+                t_us,
+                offset: pos + 8,
+                frame,
+            });
+            pos += 8 + frame.as_bytes().len();
+            continue;
+        }
+        // Damage: search from the byte after this record's timestamp.
+        let mut search = Parser::<{ v2::MAX_FRAME_LEN }>::new(table);
+        let found = match search.feed(body) {
+            Feed::Frame { frame, remaining } => {
+                let end = data.len() - remaining.len();
+                let start = end - frame.as_bytes().len();
+                on_record(Record {
+                    t_us: timestamp(data, start),
+                    offset: start,
+                    frame,
+                });
+                Some((start, end))
+            }
+            Feed::Consumed => None,
+        };
+        stats.bad_crc += search.stats().bad_crc;
+        let Some((start, end)) = found else {
+            // Nothing more: the rest is damage, or a record cut off at the end.
+            if body.len() < v2::MAX_FRAME_LEN
+                && body
+                    .first()
+                    .is_some_and(|&b| b == v1::MAGIC || b == v2::MAGIC)
+            {
+                stats.truncated_bytes += (data.len() - pos) as u64;
+            } else {
+                stats.skipped_bytes += body.len() as u64;
+            }
+            break;
+        };
+        stats.skipped_bytes += (start - (pos + 8)) as u64;
+        stats.frames += 1;
+        stats.resynced += 1;
+        pos = end;
+    }
+    stats
+}
+
+/// The big-endian timestamp in the 8 bytes before `at`.
+fn timestamp(data: &[u8], at: usize) -> Option<u64> {
+    let bytes = data.get(at.checked_sub(8)?..at)?;
+    Some(u64::from_be_bytes(bytes.try_into().ok()?))
+}
+
+/// Reads a raw capture of link bytes: every frame that passes its checksum, in order. Ids the
+/// table lacks cannot be checked and are skipped (in noise they are mostly false frames).
+pub fn read_raw<'a>(
+    data: &'a [u8],
+    table: &'static [MessageMeta],
+    mut on_record: impl FnMut(Record<'_>),
+) -> ReadStats {
+    let mut parser = Parser::<{ v2::MAX_FRAME_LEN }>::new(table);
+    let mut stats = ReadStats::default();
+    let mut input = data;
+    loop {
+        let Feed::Frame { frame, remaining } = parser.feed(input) else {
+            break;
+        };
+        let offset = data.len() - remaining.len() - frame.as_bytes().len();
+        input = remaining;
+        stats.frames += 1;
+        on_record(Record {
+            t_us: None,
+            offset,
+            frame,
+        });
+    }
+    let p = parser.stats();
+    stats.bad_crc = p.bad_crc;
+    stats.skipped_bytes = p.garbage_bytes + p.rejected();
+    stats.truncated_bytes = parser.buffered() as u64;
+    stats
+}

@@ -1,0 +1,677 @@
+//! Endpoints with many peers, for routers and connections: every peer is its own link.
+//!
+//! An [`Endpoint`] is opened with [`open`], which starts its threads and reports on one channel:
+//! [`Event::Up`] when a peer appears (with a [`Sender`] to write to it), [`Event::Rx`] for every
+//! read, [`Event::Down`] when it goes away. Peers are numbered by [`PeerId`], never reused.
+//!
+//! | URI | peers | |
+//! |-----|-------|-|
+//! | `udpin://HOST:PORT` | each address that sends to the bound socket | a peer quiet for the expiry (10 s by default) is reported down |
+//! | `udpout://HOST:PORT` | the one address | sent to from an ephemeral port; replies to that port are read |
+//! | `tcpin://HOST:PORT` | each client | any number of clients |
+//! | `tcpout://HOST:PORT` | the server | reconnects with a backoff from 50 ms doubling to 1 s |
+//! | `serial://PATH[:BAUD]` | the device | reopened every second after it fails or is unplugged |
+//!
+//! The spellings of pymavlink and rust-mavlink are accepted as well, so a user can paste what
+//! they know: `udpin:0.0.0.0:14550`, `udpout:HOST:PORT`, `udp:HOST:PORT` (= udpin),
+//! `udpbcast:HOST:PORT` (= udpout), `tcp:HOST:PORT` (= tcpout), `tcpin:HOST:PORT`,
+//! `serial:/dev/ttyUSB0:57600`, a bare device path (`/dev/ttyACM0[,BAUD]` or `COM3`).
+//!
+//! Threads, not an async runtime: one blocking reader per socket or client, parked in the kernel
+//! while nothing arrives (idle CPU is a wake-up every 200 ms per reader, to notice shutdown).
+//! Writes go straight to the socket from the caller's thread.
+
+use std::collections::HashMap;
+use std::fmt;
+use std::io::{self, Read, Write};
+use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs, UdpSocket};
+use std::str::FromStr;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex, PoisonError};
+use std::thread;
+use std::time::{Duration, Instant};
+
+/// Baud rate of a serial URI without one.
+pub const DEFAULT_BAUD: u32 = 57_600;
+/// How long a `udpin` peer may be quiet before it is reported down.
+pub const DEFAULT_PEER_EXPIRY: Duration = Duration::from_secs(10);
+/// The longest wait between `tcpout` connection attempts.
+pub const MAX_BACKOFF: Duration = Duration::from_secs(1);
+/// How often readers look up from a blocking read to notice a shutdown.
+const POLL: Duration = Duration::from_millis(200);
+/// How long a write to a TCP peer or serial device may block before the frame is given up.
+const WRITE_TIMEOUT: Duration = Duration::from_millis(100);
+
+/// A MAVLink-style endpoint URI.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Endpoint {
+    /// `udpin://HOST:PORT`: listen; every sender is a peer.
+    UdpIn(String, u16),
+    /// `udpout://HOST:PORT`: send there, read the replies.
+    UdpOut(String, u16),
+    /// `tcpin://HOST:PORT`: TCP server; every client is a peer.
+    TcpIn(String, u16),
+    /// `tcpout://HOST:PORT`: TCP client that reconnects.
+    TcpOut(String, u16),
+    /// `serial://PATH[:BAUD]`: a serial device, 8N1, that is reopened when it fails.
+    Serial(String, u32),
+}
+
+/// Why an endpoint URI did not parse; the text names the URI and lists the accepted forms.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UriError(String);
+
+impl fmt::Display for UriError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}\n  hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, \
+             tcpout://HOST:PORT, serial://PATH[:BAUD]; pymavlink spellings (udpin:HOST:PORT, \
+             tcp:HOST:PORT, serial:PATH:BAUD) work too",
+            self.0
+        )
+    }
+}
+
+impl std::error::Error for UriError {}
+
+impl FromStr for Endpoint {
+    type Err = UriError;
+
+    fn from_str(uri: &str) -> Result<Self, UriError> {
+        let bad = |what: &str| UriError(format!("{what} in {uri:?}"));
+        let (scheme, rest) = match uri.split_once("://") {
+            Some(split) => split,
+            None => match uri.split_once(':') {
+                Some((scheme, rest)) if scheme.bytes().all(|b| b.is_ascii_alphabetic()) => {
+                    if scheme.len() == 1 {
+                        // A Windows drive letter: `C:...` is no scheme.
+                        ("serial", uri)
+                    } else {
+                        (scheme, rest)
+                    }
+                }
+                _ if uri.starts_with('/') || uri.starts_with("COM") => ("serial", uri),
+                _ => return Err(bad("missing scheme")),
+            },
+        };
+        let host_port = |rest: &str| -> Result<(String, u16), UriError> {
+            let (host, port) = rest.rsplit_once(':').ok_or_else(|| bad("missing :PORT"))?;
+            let host = host.trim_start_matches('[').trim_end_matches(']');
+            if host.is_empty() {
+                return Err(bad("missing host"));
+            }
+            let port = port
+                .parse::<u16>()
+                .ok()
+                .filter(|_| port.bytes().all(|b| b.is_ascii_digit()))
+                .ok_or_else(|| bad(&format!("bad port {port:?}")))?;
+            Ok((host.to_owned(), port))
+        };
+        Ok(match scheme {
+            "udpin" | "udp" => {
+                let (h, p) = host_port(rest)?;
+                Endpoint::UdpIn(h, p)
+            }
+            "udpout" | "udpbcast" => {
+                let (h, p) = host_port(rest)?;
+                Endpoint::UdpOut(h, p)
+            }
+            "tcpin" => {
+                let (h, p) = host_port(rest)?;
+                Endpoint::TcpIn(h, p)
+            }
+            "tcpout" | "tcp" => {
+                let (h, p) = host_port(rest)?;
+                Endpoint::TcpOut(h, p)
+            }
+            "serial" => {
+                // `PATH:BAUD` or `PATH,BAUD`; any other ':' belongs to the path.
+                let split = rest
+                    .rsplit_once(':')
+                    .or_else(|| rest.rsplit_once(','))
+                    .filter(|(_, b)| !b.is_empty() && b.bytes().all(|c| c.is_ascii_digit()));
+                let (path, baud) = match split {
+                    Some((path, baud)) => (
+                        path,
+                        baud.parse::<u32>()
+                            .ok()
+                            .filter(|&b| b > 0)
+                            .ok_or_else(|| bad(&format!("bad baud rate {baud:?}")))?,
+                    ),
+                    None => (rest, DEFAULT_BAUD),
+                };
+                if path.is_empty() {
+                    return Err(bad("missing device path"));
+                }
+                Endpoint::Serial(path.to_owned(), baud)
+            }
+            other => return Err(bad(&format!("unknown scheme {other:?}"))),
+        })
+    }
+}
+
+impl fmt::Display for Endpoint {
+    /// The canonical URI.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let host = |h: &str| {
+            if h.contains(':') {
+                format!("[{h}]")
+            } else {
+                h.to_owned()
+            }
+        };
+        match self {
+            Endpoint::UdpIn(h, p) => write!(f, "udpin://{}:{p}", host(h)),
+            Endpoint::UdpOut(h, p) => write!(f, "udpout://{}:{p}", host(h)),
+            Endpoint::TcpIn(h, p) => write!(f, "tcpin://{}:{p}", host(h)),
+            Endpoint::TcpOut(h, p) => write!(f, "tcpout://{}:{p}", host(h)),
+            Endpoint::Serial(path, baud) => write!(f, "serial://{path}:{baud}"),
+        }
+    }
+}
+
+/// A peer's number: unique over the life of the process.
+pub type PeerId = u64;
+
+static NEXT_PEER: AtomicU64 = AtomicU64::new(1);
+
+fn next_peer() -> PeerId {
+    NEXT_PEER.fetch_add(1, Ordering::Relaxed)
+}
+
+/// What an endpoint reports.
+#[derive(Debug)]
+pub enum Event {
+    /// A peer appeared. `name` says who it is (`udpin://0.0.0.0:14550 <- 127.0.0.1:40000`).
+    Up {
+        /// The endpoint's index, as given to [`open`].
+        endpoint: usize,
+        /// The peer.
+        peer: PeerId,
+        /// Who it is.
+        name: String,
+        /// Writes to it.
+        sender: Sender,
+    },
+    /// Bytes from a peer, read at `at`.
+    Rx {
+        /// The peer.
+        peer: PeerId,
+        /// The bytes (one datagram, or what one read returned).
+        bytes: Vec<u8>,
+        /// When they were read.
+        at: Instant,
+    },
+    /// A peer went away (closed, failed, unplugged or quiet), with the reason.
+    Down {
+        /// The peer.
+        peer: PeerId,
+        /// Why.
+        why: String,
+    },
+}
+
+/// Writes to one peer. Cloning shares the socket.
+#[derive(Debug, Clone)]
+pub struct Sender(SenderKind);
+
+#[derive(Debug, Clone)]
+enum SenderKind {
+    Udp(Arc<UdpSocket>, SocketAddr),
+    Stream(Arc<Mutex<Box<dyn WriteStream>>>),
+}
+
+trait WriteStream: Write + Send + fmt::Debug {}
+impl<T: Write + Send + fmt::Debug> WriteStream for T {}
+
+impl Sender {
+    /// Sends `bytes` as one datagram, or writes them to the stream (giving up after 100 ms).
+    pub fn send(&self, bytes: &[u8]) -> io::Result<()> {
+        match &self.0 {
+            SenderKind::Udp(socket, to) => socket.send_to(bytes, to).map(|_| ()),
+            SenderKind::Stream(stream) => stream
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .write_all(bytes),
+        }
+    }
+}
+
+/// Options of [`open`].
+#[derive(Debug, Clone, Copy)]
+pub struct Options {
+    /// How long a `udpin` peer may be quiet before it is reported down.
+    pub peer_expiry: Duration,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            peer_expiry: DEFAULT_PEER_EXPIRY,
+        }
+    }
+}
+
+/// An open endpoint. Dropping it stops its threads (within 200 ms) and closes its peers.
+#[derive(Debug)]
+pub struct Handle {
+    stop: Arc<AtomicBool>,
+    local: Option<SocketAddr>,
+}
+
+impl Handle {
+    /// The bound address of a `udpin`, `udpout` or `tcpin` endpoint (useful with port 0).
+    pub fn local_addr(&self) -> Option<SocketAddr> {
+        self.local
+    }
+}
+
+impl Drop for Handle {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+fn resolve(host: &str, port: u16) -> io::Result<SocketAddr> {
+    let mut addrs: Vec<SocketAddr> = (host, port).to_socket_addrs()?.collect();
+    addrs.sort_by_key(SocketAddr::is_ipv6);
+    addrs
+        .into_iter()
+        .next()
+        .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, format!("{host:?} has no address")))
+}
+
+/// Opens endpoint number `index` and reports its peers on `events`. Sockets are bound (and a
+/// server listens) before this returns; `tcpout` and `serial` connect in the background.
+pub fn open(
+    index: usize,
+    endpoint: &Endpoint,
+    options: Options,
+    events: mpsc::Sender<Event>,
+) -> io::Result<Handle> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let name = endpoint.to_string();
+    let uri = name.clone();
+    let context = |e: io::Error| io::Error::new(e.kind(), format!("{uri}: {e}"));
+    let local = match endpoint {
+        Endpoint::UdpIn(host, port) => {
+            let socket =
+                UdpSocket::bind(resolve(host, *port).map_err(context)?).map_err(context)?;
+            let local = socket.local_addr().ok();
+            spawn(&uri, {
+                let stop = stop.clone();
+                move || udp_in(index, &name, socket, options.peer_expiry, &stop, &events)
+            })?;
+            local
+        }
+        Endpoint::UdpOut(host, port) => {
+            let to = resolve(host, *port).map_err(context)?;
+            let any: SocketAddr = if to.is_ipv4() {
+                ([0, 0, 0, 0], 0).into()
+            } else {
+                (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
+            };
+            let socket = UdpSocket::bind(any).map_err(context)?;
+            let local = socket.local_addr().ok();
+            spawn(&uri, {
+                let stop = stop.clone();
+                move || udp_out(index, &name, socket, to, &stop, &events)
+            })?;
+            local
+        }
+        Endpoint::TcpIn(host, port) => {
+            let listener =
+                TcpListener::bind(resolve(host, *port).map_err(context)?).map_err(context)?;
+            listener.set_nonblocking(true).map_err(context)?;
+            let local = listener.local_addr().ok();
+            spawn(&uri, {
+                let stop = stop.clone();
+                move || tcp_in(index, &name, &listener, &stop, &events)
+            })?;
+            local
+        }
+        Endpoint::TcpOut(host, port) => {
+            let (host, port) = (host.clone(), *port);
+            spawn(&uri, {
+                let stop = stop.clone();
+                move || tcp_out(index, &name, &host, port, &stop, &events)
+            })?;
+            None
+        }
+        Endpoint::Serial(path, baud) => {
+            let (path, baud) = (path.clone(), *baud);
+            spawn(&uri, {
+                let stop = stop.clone();
+                move || serial(index, &name, &path, baud, &stop, &events)
+            })?;
+            None
+        }
+    };
+    Ok(Handle { stop, local })
+}
+
+fn spawn(name: &str, f: impl FnOnce() + Send + 'static) -> io::Result<()> {
+    thread::Builder::new()
+        .name(name.chars().take(15).collect())
+        .spawn(f)
+        .map(|_| ())
+}
+
+fn is_timeout(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+    )
+}
+
+/// ICMP "port unreachable" answers to earlier datagrams: no reason to give up on a socket.
+fn is_icmp_noise(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::ConnectionRefused | io::ErrorKind::ConnectionReset
+    )
+}
+
+fn udp_in(
+    index: usize,
+    name: &str,
+    socket: UdpSocket,
+    expiry: Duration,
+    stop: &AtomicBool,
+    events: &mpsc::Sender<Event>,
+) {
+    let socket = Arc::new(socket);
+    let _ = socket.set_read_timeout(Some(POLL));
+    let mut peers: HashMap<SocketAddr, (PeerId, Instant)> = HashMap::new();
+    let mut buf = vec![0u8; 65_536];
+    while !stop.load(Ordering::Relaxed) {
+        let received = socket.recv_from(&mut buf);
+        let now = Instant::now();
+        // Peers quiet for too long are gone.
+        let mut gone = Vec::new();
+        peers.retain(|addr, (peer, last)| {
+            let keep = now.duration_since(*last) <= expiry;
+            if !keep {
+                gone.push((*peer, *addr));
+            }
+            keep
+        });
+        for (peer, addr) in gone {
+            let why = format!("{addr} quiet for {} s", expiry.as_secs_f64());
+            if events.send(Event::Down { peer, why }).is_err() {
+                return;
+            }
+        }
+        let (n, from) = match received {
+            Ok(got) => got,
+            Err(e) if is_timeout(&e) || is_icmp_noise(&e) => continue,
+            Err(_) => {
+                thread::sleep(POLL);
+                continue;
+            }
+        };
+        let peer = match peers.get_mut(&from) {
+            Some((peer, last)) => {
+                *last = now;
+                *peer
+            }
+            None => {
+                let peer = next_peer();
+                peers.insert(from, (peer, now));
+                let up = Event::Up {
+                    endpoint: index,
+                    peer,
+                    name: format!("{name} <- {from}"),
+                    sender: Sender(SenderKind::Udp(socket.clone(), from)),
+                };
+                if events.send(up).is_err() {
+                    return;
+                }
+                peer
+            }
+        };
+        let rx = Event::Rx {
+            peer,
+            bytes: buf[..n].to_vec(),
+            at: now,
+        };
+        if events.send(rx).is_err() {
+            return;
+        }
+    }
+}
+
+fn udp_out(
+    index: usize,
+    name: &str,
+    socket: UdpSocket,
+    to: SocketAddr,
+    stop: &AtomicBool,
+    events: &mpsc::Sender<Event>,
+) {
+    let socket = Arc::new(socket);
+    let _ = socket.set_read_timeout(Some(POLL));
+    let peer = next_peer();
+    let up = Event::Up {
+        endpoint: index,
+        peer,
+        name: name.to_owned(),
+        sender: Sender(SenderKind::Udp(socket.clone(), to)),
+    };
+    if events.send(up).is_err() {
+        return;
+    }
+    let mut buf = vec![0u8; 65_536];
+    while !stop.load(Ordering::Relaxed) {
+        match socket.recv_from(&mut buf) {
+            // Only the peer's replies: anything else reaching our ephemeral port is ignored.
+            Ok((n, from)) if from == to => {
+                let rx = Event::Rx {
+                    peer,
+                    bytes: buf[..n].to_vec(),
+                    at: Instant::now(),
+                };
+                if events.send(rx).is_err() {
+                    return;
+                }
+            }
+            Ok(_) => {}
+            Err(e) if is_timeout(&e) || is_icmp_noise(&e) => {}
+            Err(_) => thread::sleep(POLL),
+        }
+    }
+}
+
+fn tcp_in(
+    index: usize,
+    name: &str,
+    listener: &TcpListener,
+    stop: &Arc<AtomicBool>,
+    events: &mpsc::Sender<Event>,
+) {
+    while !stop.load(Ordering::Relaxed) {
+        match listener.accept() {
+            Ok((stream, from)) => {
+                let peer_name = format!("{name} <- {from}");
+                let (events, stop) = (events.clone(), stop.clone());
+                let _ = spawn(name, move || {
+                    stream_peer(index, &peer_name, stream, &stop, &events);
+                });
+            }
+            Err(e) if is_timeout(&e) => thread::sleep(Duration::from_millis(20)),
+            Err(_) => thread::sleep(POLL),
+        }
+    }
+}
+
+/// Serves one connected TCP stream until it closes; returns why it ended.
+fn stream_peer(
+    index: usize,
+    name: &str,
+    stream: TcpStream,
+    stop: &AtomicBool,
+    events: &mpsc::Sender<Event>,
+) -> Option<String> {
+    let setup = stream
+        .set_nonblocking(false)
+        .and_then(|()| stream.set_nodelay(true))
+        .and_then(|()| stream.set_write_timeout(Some(WRITE_TIMEOUT)))
+        .and_then(|()| stream.set_read_timeout(Some(POLL)))
+        .and_then(|()| stream.try_clone());
+    let writer = match setup {
+        Ok(writer) => writer,
+        Err(e) => return Some(e.to_string()),
+    };
+    let shutdown = writer.try_clone().ok();
+    let sender = Sender(SenderKind::Stream(Arc::new(Mutex::new(Box::new(writer)))));
+    let why = read_peer(index, name, stream, sender, stop, events);
+    if let Some(s) = shutdown {
+        let _ = s.shutdown(Shutdown::Both);
+    }
+    why
+}
+
+/// Reports a peer up, forwards its reads, and reports it down when reading fails. Returns the
+/// reason, or `None` if the endpoint was stopped or nobody listens any more.
+fn read_peer(
+    index: usize,
+    name: &str,
+    mut reader: impl Read,
+    sender: Sender,
+    stop: &AtomicBool,
+    events: &mpsc::Sender<Event>,
+) -> Option<String> {
+    let peer = next_peer();
+    let up = Event::Up {
+        endpoint: index,
+        peer,
+        name: name.to_owned(),
+        sender,
+    };
+    events.send(up).ok()?;
+    let mut buf = vec![0u8; 16 * 1024];
+    let why = loop {
+        if stop.load(Ordering::Relaxed) {
+            return None;
+        }
+        match reader.read(&mut buf) {
+            Ok(0) => break "closed".to_owned(),
+            Ok(n) => {
+                let rx = Event::Rx {
+                    peer,
+                    bytes: buf[..n].to_vec(),
+                    at: Instant::now(),
+                };
+                events.send(rx).ok()?;
+            }
+            Err(e) if is_timeout(&e) => {}
+            Err(e) => break e.to_string(),
+        }
+    };
+    events
+        .send(Event::Down {
+            peer,
+            why: why.clone(),
+        })
+        .ok()?;
+    Some(why)
+}
+
+fn tcp_out(
+    index: usize,
+    name: &str,
+    host: &str,
+    port: u16,
+    stop: &AtomicBool,
+    events: &mpsc::Sender<Event>,
+) {
+    let first = Duration::from_millis(50);
+    let mut backoff = first;
+    while !stop.load(Ordering::Relaxed) {
+        let connected = resolve(host, port)
+            .and_then(|addr| TcpStream::connect_timeout(&addr, Duration::from_secs(2)));
+        match connected {
+            Ok(stream) => {
+                backoff = first;
+                if stream_peer(index, name, stream, stop, events).is_none() {
+                    return;
+                }
+            }
+            Err(_) => {
+                thread::sleep(backoff);
+                backoff = (backoff * 2).min(MAX_BACKOFF);
+            }
+        }
+    }
+}
+
+fn serial(
+    index: usize,
+    name: &str,
+    path: &str,
+    baud: u32,
+    stop: &AtomicBool,
+    events: &mpsc::Sender<Event>,
+) {
+    let mut reported = false;
+    while !stop.load(Ordering::Relaxed) {
+        let opened = serialport::new(path, baud)
+            .timeout(POLL)
+            .open()
+            .and_then(|port| Ok((port.try_clone()?, port)));
+        match opened {
+            Ok((reader, mut writer)) => {
+                reported = false;
+                let _ = writer.set_timeout(WRITE_TIMEOUT);
+                let sender = Sender(SenderKind::Stream(Arc::new(Mutex::new(Box::new(
+                    SerialWriter(writer),
+                )))));
+                if read_peer(index, name, SerialReader(reader), sender, stop, events).is_none() {
+                    return;
+                }
+            }
+            Err(e) => {
+                if !reported {
+                    eprintln!("{name}: {e}; retrying every second");
+                    reported = true;
+                }
+            }
+        }
+        thread::sleep(Duration::from_secs(1));
+    }
+}
+
+/// A serial port's reading half; a read of 0 bytes means the device hung up (unplugged).
+struct SerialReader(Box<dyn serialport::SerialPort>);
+
+impl Read for SerialReader {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        match self.0.read(buf) {
+            Ok(0) => Err(io::Error::new(
+                io::ErrorKind::UnexpectedEof,
+                "the serial device hung up",
+            )),
+            other => other,
+        }
+    }
+}
+
+struct SerialWriter(Box<dyn serialport::SerialPort>);
+
+impl fmt::Debug for SerialWriter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_tuple("SerialWriter").field(&self.0.name()).finish()
+    }
+}
+
+impl Write for SerialWriter {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.0.write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.0.flush()
+    }
+}
