@@ -460,8 +460,8 @@ impl PayloadDecoder<'_> {
     /// - integers as JSON integers (enums too), floats as the exact double of their value (`NaN`
     ///   and infinities, which JSON cannot hold, as `null`);
     /// - arrays as lists;
-    /// - `char` fields and `char[N]` arrays as text: trailing NULs removed, then decoded as
-    ///   UTF-8 with each invalid byte written as `\xNN` (Python's `backslashreplace`).
+    /// - `char` fields and `char[N]` arrays as text: cut at the first NUL, bytes above 0x7f
+    ///   shown as U+FFFD.
     ///
     /// `None` if the id is unknown.
     pub fn to_dict(&self, id: u32, payload: &[u8]) -> Option<serde_json::Value> {
@@ -503,31 +503,20 @@ impl PayloadDecoder<'_> {
     }
 }
 
-/// `char` bytes as pymavlink 2.4.50 shows them: trailing NULs stripped, then UTF-8 with every
-/// byte of an invalid sequence written as `\xNN`.
+/// `char` bytes as pymavlink 2.4.50 shows them: cut at the first NUL, then ASCII with every
+/// byte above 0x7f replaced by U+FFFD (Python's `decode("ascii", errors="replace")`).
 fn python_text(bytes: &[u8]) -> String {
-    let end = bytes.iter().rposition(|&b| b != 0).map_or(0, |i| i + 1);
-    let mut rest = &bytes[..end];
-    let mut out = String::new();
-    while !rest.is_empty() {
-        match std::str::from_utf8(rest) {
-            Ok(text) => {
-                out.push_str(text);
-                break;
+    bytes
+        .iter()
+        .take_while(|&&b| b != 0)
+        .map(|&b| {
+            if b.is_ascii() {
+                char::from(b)
+            } else {
+                '\u{fffd}'
             }
-            Err(e) => {
-                let (good, bad) = rest.split_at(e.valid_up_to());
-                out.push_str(std::str::from_utf8(good).unwrap_or_default());
-                let skip = e.error_len().unwrap_or(bad.len());
-                for b in &bad[..skip] {
-                    // Writing to a String cannot fail.
-                    let _ = write!(out, "\\x{b:02x}");
-                }
-                rest = &bad[skip..];
-            }
-        }
-    }
-    out
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -1,0 +1,44 @@
+//! What the CLI's tests share: the binary, the workspace, and the reference Python.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The `ferrolink` binary under test.
+pub fn ferrolink() -> &'static str {
+    env!("CARGO_BIN_EXE_ferrolink")
+}
+
+/// The workspace root.
+pub fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A Python with pymavlink (`FERROLINK_PYTHON`, else `.venv/bin/python`) and pymavlink's
+/// dialect folder.
+pub fn pymavlink() -> Option<(PathBuf, PathBuf)> {
+    let python = std::env::var_os("FERROLINK_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace().join(".venv/bin/python"));
+    let out = Command::new(&python)
+        .args([
+            "-c",
+            "import pymavlink, os; print(os.path.dirname(pymavlink.__file__))",
+        ])
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    let dir = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim());
+    Some((python, dir.join("dialects/v20")))
+}
+
+/// Says why a test did nothing, and fails if the full run requires pymavlink.
+pub fn skip(why: &str) {
+    assert!(
+        std::env::var_os("FERROLINK_REQUIRE_PYMAVLINK").is_none(),
+        "{why}, but FERROLINK_REQUIRE_PYMAVLINK is set"
+    );
+    eprintln!("skipped: {why}");
+}

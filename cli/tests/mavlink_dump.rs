@@ -1,0 +1,126 @@
+//! `ferrolink mavlink dump` against pymavlink 2.4.50 on the real captures in
+//! `../shared/captures/`: every message pymavlink decodes must come out of ours, in the same
+//! order, with the same sender, sequence number and values. Frames we recover that pymavlink
+//! loses are counted, not failures.
+//!
+//! Needs the captures and a Python with pymavlink (`FERROLINK_PYTHON`, else `.venv/bin/python`;
+//! `tests/run-all.sh` installs it). Without them the test says so and passes, unless
+//! `FERROLINK_REQUIRE_PYMAVLINK` is set.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use common::{ferrolink, pymavlink, workspace};
+use serde_json::Value;
+
+fn captures() -> Option<Vec<PathBuf>> {
+    let dir = workspace().join("../shared/captures");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .ok()?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            let name = p.to_string_lossy();
+            name.ends_with(".tlog") || name.ends_with(".tlog.raw")
+        })
+        .collect();
+    files.sort();
+    Some(files)
+}
+
+fn lines(out: &[u8]) -> Vec<Value> {
+    String::from_utf8_lossy(out)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+/// (sysid, compid, seq, msg) of every decoded message.
+fn messages(all: &[Value]) -> Vec<(u64, u64, u64, &Value)> {
+    all.iter()
+        .filter(|v| v.get("msg").is_some_and(|m| !m.is_null()))
+        .map(|v| {
+            let n = |k: &str| v[k].as_u64().unwrap_or(u64::MAX);
+            (n("sysid"), n("compid"), n("seq"), &v["msg"])
+        })
+        .collect()
+}
+
+/// pymavlink shows a one-element array as a scalar.
+fn same_msg(ours: &Value, theirs: &Value) -> bool {
+    let (Some(ours), Some(theirs)) = (ours.as_object(), theirs.as_object()) else {
+        return false;
+    };
+    ours.len() == theirs.len()
+        && ours.iter().all(|(k, v)| {
+            theirs.get(k).is_some_and(|t| match v.as_array() {
+                Some(list) if list.len() == 1 && !t.is_array() => &list[0] == t,
+                _ => v == t,
+            })
+        })
+}
+
+fn compare(file: &Path, python: &Path, dialect: &Path) -> (usize, usize) {
+    let raw = file.to_string_lossy().ends_with(".raw");
+    let mut ours = Command::new(ferrolink());
+    ours.args(["mavlink", "dump", "--dialect"]).arg(dialect);
+    if raw {
+        ours.arg("--raw");
+    }
+    let ours = ours.arg(file).output().expect("run ferrolink");
+    assert!(
+        ours.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ours.stderr)
+    );
+    let mut theirs = Command::new(python);
+    theirs.arg(workspace().join("tests/mavlink/pymavlink_dump.py"));
+    if raw {
+        theirs.arg("--raw");
+    }
+    let theirs = theirs.arg(file).output().expect("run pymavlink");
+    assert!(
+        theirs.status.success(),
+        "{}",
+        String::from_utf8_lossy(&theirs.stderr)
+    );
+    let (ours, theirs) = (lines(&ours.stdout), lines(&theirs.stdout));
+    assert!(ours.last().is_some_and(|l| l.get("summary").is_some()));
+    let (ours, theirs) = (messages(&ours), messages(&theirs));
+    // pymavlink's messages are a subsequence of ours.
+    let mut at = 0;
+    for (i, t) in theirs.iter().enumerate() {
+        let found = ours[at..]
+            .iter()
+            .position(|o| (o.0, o.1, o.2) == (t.0, t.1, t.2) && same_msg(o.3, t.3));
+        match found {
+            Some(k) => at += k + 1,
+            None => panic!(
+                "{}: pymavlink's message #{i} is missing or differs: {}\nours next: {:?}",
+                file.display(),
+                t.3,
+                ours.get(at).map(|o| o.3.to_string())
+            ),
+        }
+    }
+    (theirs.len(), ours.len() - theirs.len())
+}
+
+#[test]
+fn every_capture_decodes_as_pymavlink_does() {
+    let (Some(files), Some((python, dialects))) = (captures(), pymavlink()) else {
+        common::skip("the captures or pymavlink are missing");
+        return;
+    };
+    let dialect = dialects.join("ardupilotmega.xml");
+    assert!(!files.is_empty());
+    for file in files {
+        let (same, extra) = compare(&file, &python, &dialect);
+        eprintln!(
+            "{}: {same} messages as pymavlink, {extra} more recovered",
+            file.file_name().unwrap_or_default().to_string_lossy()
+        );
+        assert!(same > 0, "{}: nothing decoded", file.display());
+    }
+}
