@@ -66,7 +66,7 @@ fn generated_bindings_are_fresh() {
         );
     }
     panic!(
-        "generated/ is stale ({}); run:\n  cargo run -p ferrolink-codegen --features cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde\n  cargo run -p ferrolink-codegen --features cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet",
+        "generated/ is stale ({}); run:\n  cargo run -p ferrolink-cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde\n  cargo run -p ferrolink-cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet",
         stale.join(", ")
     );
 }

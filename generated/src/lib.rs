@@ -3,9 +3,9 @@
 //! Regenerate with
 //!
 //! ```sh
-//! cargo run -p ferrolink-codegen --features cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde
-//! cargo run -p ferrolink-codegen --features cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet
-//! cargo run -p ferrolink-codegen --features cli -- generate definitions/modrob/*.toml --out generated/src/modrob
+//! cargo run -p ferrolink-cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde
+//! cargo run -p ferrolink-cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet
+//! cargo run -p ferrolink-cli -- generate definitions/modrob/*.toml --out generated/src/modrob
 //! ```
 //!
 //! A test fails when these files are stale.

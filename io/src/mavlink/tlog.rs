@@ -131,8 +131,8 @@ pub struct Record<'a> {
 /// as it stands. Anything else is damage: the reader then searches for the next frame that
 /// passes its checksum, with the backtracking parser, and takes the 8 bytes before it as its
 /// timestamp.
-pub fn read_tlog<'a>(
-    data: &'a [u8],
+pub fn read_tlog(
+    data: &[u8],
     table: &'static [MessageMeta],
     mut on_record: impl FnMut(Record<'_>),
 ) -> ReadStats {
@@ -201,18 +201,15 @@ fn timestamp(data: &[u8], at: usize) -> Option<u64> {
 
 /// Reads a raw capture of link bytes: every frame that passes its checksum, in order. Ids the
 /// table lacks cannot be checked and are skipped (in noise they are mostly false frames).
-pub fn read_raw<'a>(
-    data: &'a [u8],
+pub fn read_raw(
+    data: &[u8],
     table: &'static [MessageMeta],
     mut on_record: impl FnMut(Record<'_>),
 ) -> ReadStats {
     let mut parser = Parser::<{ v2::MAX_FRAME_LEN }>::new(table);
     let mut stats = ReadStats::default();
     let mut input = data;
-    loop {
-        let Feed::Frame { frame, remaining } = parser.feed(input) else {
-            break;
-        };
+    while let Feed::Frame { frame, remaining } = parser.feed(input) {
         let offset = data.len() - remaining.len() - frame.as_bytes().len();
         input = remaining;
         stats.frames += 1;
