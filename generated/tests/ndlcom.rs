@@ -100,3 +100,46 @@ proptest! {
         prop_assert_eq!(got.yaw.to_bits(), yaw.to_bits());
     }
 }
+
+/// The NDLCom bridge answers pings with its own PING, so that the CLI needs no generated code:
+/// it must be the generated one, byte for byte.
+#[test]
+fn bridge_ping_is_the_generated_ping() {
+    use ferrolink_runtime::mavlink::{Message, PayloadBuf};
+    type Ours = ferrolink_generated::mavlink::minimal::Ping;
+    type Bridge = ferrolink_io::bridge::Ping;
+    assert_eq!(
+        (Ours::ID, Ours::CRC_EXTRA, Ours::MIN_LEN, Ours::MAX_LEN),
+        (
+            Bridge::ID,
+            Bridge::CRC_EXTRA,
+            Bridge::MIN_LEN,
+            Bridge::MAX_LEN
+        )
+    );
+    let ours = Ours {
+        time_usec: 0x0102_0304_0506_0708,
+        seq: 0x0a0b_0c0d,
+        target_system: 7,
+        target_component: 9,
+    };
+    let (mut a, mut b): (PayloadBuf, PayloadBuf) = ([0xa5; 255], [0xa5; 255]);
+    let n = ours.encode(&mut a);
+    let bridge = Bridge::decode(&a[..n]);
+    assert_eq!(bridge.encode(&mut b), n);
+    assert_eq!(a[..n], b[..n]);
+    assert_eq!(
+        (
+            bridge.time_usec,
+            bridge.seq,
+            bridge.target_system,
+            bridge.target_component
+        ),
+        (
+            ours.time_usec,
+            ours.seq,
+            ours.target_system,
+            ours.target_component
+        )
+    );
+}

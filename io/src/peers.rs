@@ -313,11 +313,25 @@ pub fn open(
             } else {
                 (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
             };
-            let socket = UdpSocket::bind(any).map_err(context)?;
+            let socket = Arc::new(UdpSocket::bind(any).map_err(context)?);
             let local = socket.local_addr().ok();
+            // The one peer is known now: report it before returning, so a send right after
+            // `open` has somewhere to go.
+            let peer = next_peer();
+            let up = Event::Up {
+                endpoint: index,
+                peer,
+                name,
+                sender: Sender(SenderKind::Udp(socket.clone(), to)),
+            };
+            if events.send(up).is_err() {
+                return Err(io::Error::other(format!(
+                    "{uri}: nobody listens for events"
+                )));
+            }
             spawn(&uri, {
                 let stop = stop.clone();
-                move || udp_out(index, &name, socket, to, &stop, &events)
+                move || udp_out(peer, socket, to, &stop, &events)
             })?;
             local
         }
@@ -444,25 +458,13 @@ fn udp_in(
 }
 
 fn udp_out(
-    index: usize,
-    name: &str,
-    socket: UdpSocket,
+    peer: PeerId,
+    socket: Arc<UdpSocket>,
     to: SocketAddr,
     stop: &AtomicBool,
     events: &mpsc::Sender<Event>,
 ) {
-    let socket = Arc::new(socket);
     let _ = socket.set_read_timeout(Some(POLL));
-    let peer = next_peer();
-    let up = Event::Up {
-        endpoint: index,
-        peer,
-        name: name.to_owned(),
-        sender: Sender(SenderKind::Udp(socket.clone(), to)),
-    };
-    if events.send(up).is_err() {
-        return;
-    }
     let mut buf = vec![0u8; 65_536];
     while !stop.load(Ordering::Relaxed) {
         match socket.recv_from(&mut buf) {

@@ -1,0 +1,144 @@
+//! Endpoint URIs, telemetry logs and connections on loopback.
+
+use std::time::Duration;
+
+use ferrolink_io::mavlink::tlog::{self, read_tlog, redact_setup_signing};
+use ferrolink_io::mavlink::Connection;
+use ferrolink_io::peers::Endpoint;
+use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
+
+static META: &[MessageMeta] = &[
+    MessageMeta {
+        id: 0,
+        name: "HEARTBEAT",
+        crc_extra: 50,
+        min_len: 9,
+        max_len: 9,
+        target_system: None,
+        target_component: None,
+    },
+    MessageMeta {
+        id: 256,
+        name: "SETUP_SIGNING",
+        crc_extra: 71,
+        min_len: 42,
+        max_len: 42,
+        target_system: Some(8),
+        target_component: Some(9),
+    },
+];
+
+#[test]
+fn uris_in_every_spelling() {
+    let cases = [
+        ("udpin://0.0.0.0:14550", "udpin://0.0.0.0:14550"),
+        ("udpin:0.0.0.0:14550", "udpin://0.0.0.0:14550"),
+        ("udp:0.0.0.0:14550", "udpin://0.0.0.0:14550"),
+        ("udpout://10.0.0.2:14550", "udpout://10.0.0.2:14550"),
+        ("udpbcast:10.0.0.255:14550", "udpout://10.0.0.255:14550"),
+        ("tcpin://[::1]:5760", "tcpin://[::1]:5760"),
+        ("tcp:127.0.0.1:5760", "tcpout://127.0.0.1:5760"),
+        ("tcpout://localhost:5760", "tcpout://localhost:5760"),
+        ("serial:/dev/ttyUSB0:57600", "serial:///dev/ttyUSB0:57600"),
+        ("serial:///dev/ttyACM0", "serial:///dev/ttyACM0:57600"),
+        ("/dev/ttyACM0,115200", "serial:///dev/ttyACM0:115200"),
+        (
+            "serial:///dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0:921600",
+            "serial:///dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0:921600",
+        ),
+    ];
+    for (uri, canonical) in cases {
+        let parsed: Endpoint = uri.parse().unwrap_or_else(|e| panic!("{uri}: {e}"));
+        assert_eq!(parsed.to_string(), canonical, "{uri}");
+        assert_eq!(canonical.parse::<Endpoint>().unwrap(), parsed);
+    }
+    for bad in [
+        "udpin://:14550",
+        "udpin://host",
+        "tcp:host:99999",
+        "ftp://x:1",
+        "x",
+    ] {
+        let e = bad.parse::<Endpoint>().unwrap_err().to_string();
+        assert!(e.contains(bad) && e.contains("hint"), "{bad}: {e}");
+    }
+}
+
+fn frame(id: u32, crc_extra: u8, payload: &[u8], seq: u8) -> Vec<u8> {
+    let mut out = [0u8; v2::MAX_FRAME_LEN];
+    let n = v2::encode_raw(Header::new(seq, 1, 1), id, crc_extra, payload, &mut out).unwrap();
+    out[..n].to_vec()
+}
+
+#[test]
+fn tlog_round_trip_with_monotonic_time_and_a_redacted_key() {
+    let heartbeat = frame(0, 50, &[1; 9], 0);
+    let mut setup = vec![0u8; 42];
+    setup[8] = 1;
+    setup[10..42].copy_from_slice(&[0xab; 32]);
+    let setup_signing = frame(256, 71, &setup, 1);
+    let mut out = Vec::new();
+    let mut writer = tlog::Writer::new(&mut out);
+    writer.write(2_000, &heartbeat).unwrap();
+    writer.write(1_000, &setup_signing).unwrap(); // the clock stepped back
+    writer.write(3_000, &heartbeat).unwrap();
+    drop(writer);
+    let mut records = Vec::new();
+    let stats = read_tlog(&out, META, |r| {
+        assert!(
+            r.frame.is_checked(),
+            "the redacted frame has a good checksum"
+        );
+        records.push((r.t_us, r.frame.msg_id(), r.frame.payload().to_vec()));
+    });
+    assert_eq!(stats.frames, 3);
+    assert_eq!(
+        records.iter().map(|r| r.0).collect::<Vec<_>>(),
+        [Some(2_000), Some(2_000), Some(3_000)]
+    );
+    assert_eq!(records[1].1, 256);
+    assert!(records[1].2.iter().skip(10).all(|&b| b == 0), "key zeroed");
+    assert_eq!(records[1].2[8], 1, "the rest is kept");
+
+    // Damage between records and a record cut off at the end.
+    let mut damaged = out[..8 + heartbeat.len()].to_vec();
+    damaged.extend_from_slice(&[0xfd, 0x55, 0x00, 0x13]);
+    damaged.extend_from_slice(&out[8 + heartbeat.len()..]);
+    damaged.extend_from_slice(&out[..12]);
+    let stats = read_tlog(&damaged, META, |_| {});
+    assert_eq!((stats.frames, stats.resynced), (3, 1));
+    assert!(stats.truncated_bytes > 0);
+
+    // Other frames are never touched.
+    let mut hb = heartbeat.clone();
+    redact_setup_signing(&mut hb);
+    assert_eq!(hb, heartbeat);
+}
+
+#[test]
+fn connections_talk_both_ways_over_udp() {
+    let mut server = Connection::open("udpin://127.0.0.1:0", META).unwrap();
+    let port = server.local_addr().unwrap().port();
+    let mut client = Connection::open(&format!("udpout:127.0.0.1:{port}"), META).unwrap();
+    client.set_ids(1, 1);
+    client
+        .send_raw(0, 50, &[2, 0, 0, 0, 2, 3, 0x51, 4, 3])
+        .unwrap();
+    let got = server
+        .recv(Duration::from_secs(2))
+        .unwrap()
+        .expect("a frame");
+    assert_eq!(
+        (got.msg_id(), got.header().sysid, got.header().seq),
+        (0, 1, 0)
+    );
+    assert!(got.is_checked());
+    // The server answers every peer heard from.
+    server.set_ids(255, 190);
+    server.send_raw(0, 50, &[0; 9]).unwrap();
+    let back = client
+        .recv(Duration::from_secs(2))
+        .unwrap()
+        .expect("a reply");
+    assert_eq!(back.header().sysid, 255);
+}
