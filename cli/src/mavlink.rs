@@ -1,13 +1,14 @@
 //! `ferrolink mavlink`: the router daemon and the log tools.
 
 use std::io::{self, BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
 
 use clap::Subcommand;
+use ferrolink_io::mavlink::config::{self, EndpointConfig, FileConfig};
 use ferrolink_io::mavlink::{router, tlog};
 use ferrolink_io::peers::Endpoint;
 
@@ -34,14 +35,19 @@ pub enum Command {
         #[arg(long, value_name = "SECS")]
         run_for: Option<f64>,
         /// Forget a UDP peer quiet for SECS seconds.
-        #[arg(long, value_name = "SECS", default_value_t = 10.0)]
+        #[arg(long, value_name = "SECS", default_value_t = DEFAULT_PEER_EXPIRY)]
         peer_expiry: f64,
-        /// Drop frames whose exact bytes came within MS milliseconds (redundant links).
+        /// Drop frames whose exact bytes came within MS milliseconds (redundant links), on the
+        /// endpoints given on the command line.
         #[arg(long, value_name = "MS", default_value_t = 0)]
         dedup_ms: u64,
+        /// Endpoints, filters and groups from a file: our TOML form (`.toml`) or mavlink-router's
+        /// `main.conf` (anything else). Flags add to it and take precedence.
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
         /// udpin://HOST:PORT | udpout://HOST:PORT | tcpin://HOST:PORT | tcpout://HOST:PORT |
         /// serial://PATH[:BAUD]
-        #[arg(required = true, value_name = "ENDPOINT")]
+        #[arg(required_unless_present = "config", value_name = "ENDPOINT")]
         endpoints: Vec<String>,
     },
     /// Print a .tlog (or a raw capture) as JSON lines in pymavlink's to_dict() form.
@@ -57,6 +63,9 @@ pub enum Command {
     },
 }
 
+/// The default `--peer-expiry`, in seconds.
+const DEFAULT_PEER_EXPIRY: f64 = 10.0;
+
 fn seconds(s: f64) -> Result<Duration, String> {
     Duration::try_from_secs_f64(s).map_err(|e| format!("{s} seconds: {e}"))
 }
@@ -71,22 +80,31 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             run_for,
             peer_expiry,
             dedup_ms,
+            config,
             endpoints,
         } => {
-            let endpoints = endpoints
-                .iter()
-                .map(|e| e.parse::<Endpoint>())
-                .collect::<Result<Vec<_>, _>>()?;
-            let dialects = Dialects::load(&dialect)?;
+            let file = match &config {
+                Some(path) => read_config(path)?,
+                None => FileConfig::default(),
+            };
+            let mut all = file.endpoints;
+            for uri in &endpoints {
+                let mut endpoint = EndpointConfig::new(uri.parse::<Endpoint>()?);
+                endpoint.link.dedup_window_us = dedup_ms.saturating_mul(1000);
+                all.push(endpoint);
+            }
+            let dialects = Dialects::load(&[file.dialects, dialect].concat())?;
             let config = router::Config {
-                endpoints,
+                endpoints: all,
                 table: dialects.table,
-                tlog,
-                stats_json,
+                tlog: tlog.or(file.tlog),
+                stats_json: stats_json.or(file.stats_json),
                 stats_every: stats.map(seconds).transpose()?,
                 run_for: run_for.map(seconds).transpose()?,
-                peer_expiry: Some(seconds(peer_expiry)?),
-                dedup_window_us: dedup_ms.saturating_mul(1000),
+                peer_expiry: Some(match file.peer_expiry {
+                    Some(expiry) if peer_expiry == DEFAULT_PEER_EXPIRY => expiry,
+                    _ => seconds(peer_expiry)?,
+                }),
             };
             let stop = Arc::new(AtomicBool::new(false));
             let flag = stop.clone();
@@ -96,6 +114,21 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
         }
         Command::Dump { dialect, raw, file } => dump(&dialect, raw, &file),
     }
+}
+
+/// Reads a router configuration file, printing its warnings.
+fn read_config(path: &Path) -> Result<FileConfig, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let parsed = if path.extension().is_some_and(|e| e == "toml") {
+        config::from_toml(&text, path.parent().unwrap_or(Path::new(".")))
+    } else {
+        config::from_main_conf(&text)
+    };
+    let file = parsed.map_err(|e| e.in_file(path))?;
+    for w in &file.warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+    Ok(file)
 }
 
 fn dump(

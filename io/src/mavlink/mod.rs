@@ -14,6 +14,7 @@
 //! # Ok::<(), std::io::Error>(())
 //! ```
 
+pub mod config;
 pub mod router;
 pub mod tlog;
 

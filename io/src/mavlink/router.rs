@@ -13,12 +13,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
-use ferrolink_runtime::mavlink::router::{LinkConfig, LinkCounters, Router, MAX_LINKS};
+use ferrolink_runtime::mavlink::router::{LinkCounters, Router, MAX_LINKS};
 use ferrolink_runtime::mavlink::MessageMeta;
 use serde_json::json;
 
+use super::config::EndpointConfig;
 use super::{tlog, unix_us};
-use crate::peers::{self, Endpoint, Event, PeerId, Sender};
+use crate::peers::{self, Event, PeerId, Sender};
 
 /// Route and source table sizes of the daemon.
 type Daemon = Router<MAX_LINKS, 1024, 256, 1024>;
@@ -26,8 +27,8 @@ type Daemon = Router<MAX_LINKS, 1024, 256, 1024>;
 /// What the router daemon does.
 #[derive(Debug, Clone, Default)]
 pub struct Config {
-    /// The endpoints.
-    pub endpoints: Vec<Endpoint>,
+    /// The endpoints, each with the configuration of its links.
+    pub endpoints: Vec<EndpointConfig>,
     /// The messages it knows (CRC_EXTRA, target offsets), sorted by id.
     pub table: &'static [MessageMeta],
     /// Log every frame received here.
@@ -40,8 +41,6 @@ pub struct Config {
     pub run_for: Option<Duration>,
     /// How long a quiet `udpin` peer keeps its link (default 10 s).
     pub peer_expiry: Option<Duration>,
-    /// Deduplication window for every link (0: off).
-    pub dedup_window_us: u64,
 }
 
 struct Link {
@@ -60,7 +59,7 @@ pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
     };
     let mut handles = Vec::new();
     for (i, endpoint) in config.endpoints.iter().enumerate() {
-        handles.push(peers::open(i, endpoint, options, tx.clone())?);
+        handles.push(peers::open(i, &endpoint.endpoint, options, tx.clone())?);
     }
     drop(tx);
     let mut tlog = match &config.tlog {
@@ -103,13 +102,17 @@ pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
         }
         match rx.recv_timeout(wake.saturating_duration_since(now)) {
             Ok(Event::Up {
-                peer, name, sender, ..
+                endpoint,
+                peer,
+                name,
+                sender,
             }) => {
-                let config = LinkConfig {
-                    dedup_window_us: config.dedup_window_us,
-                    ..LinkConfig::default()
-                };
-                match router.open_link(config) {
+                let link = config
+                    .endpoints
+                    .get(endpoint)
+                    .map(|e| e.link.clone())
+                    .unwrap_or_default();
+                match router.open_link(link) {
                     Some(slot) => {
                         by_slot[slot] = Some(peer);
                         eprintln!("link up: {name}");

@@ -1,0 +1,447 @@
+//! Router configuration files: our TOML form, and mavlink-router's `main.conf` for users
+//! migrating from it.
+//!
+//! TOML:
+//!
+//! ```toml
+//! tlog = "flight.tlog"            # optional, as --tlog
+//! stats_json = "stats.jsonl"      # optional, as --stats-json
+//! peer_expiry = 10.0              # seconds
+//! dialects = ["ardupilotmega.xml"]
+//!
+//! [[endpoint]]
+//! uri = "serial:///dev/ttyACM0:115200"
+//!
+//! [[endpoint]]
+//! uri = "udpout://127.0.0.1:14550"
+//! group = "radios"                # redundant links share routes and never feed each other
+//! dedup_ms = 100                  # drop frames seen within 100 ms (on any link)
+//! max_delay_ms = 500              # do not send frames received longer ago
+//! allow_msg_out = [0, 30]         # and block_msg_out, allow_msg_in, block_msg_in,
+//! block_src_sys_in = [66]         # allow/block_src_sys_in/out, allow/block_src_comp_in/out
+//! signing_key = "00..1f"          # 64 hex digits: accept only frames signed with this key
+//! ```
+//!
+//! `main.conf` (the keys people use): `[General]` `TcpServerPort`, `Log` (a directory: the tlog
+//! goes there), `DeduplicationPeriod` (ms); `[UartEndpoint NAME]` `Device`, `Baud` (the first of
+//! a list); `[UdpEndpoint NAME]` `Mode` (`Normal`/`Client` sends to `Address:Port`, `Server` or
+//! `Eavesdropping` listens there), `Address`, `Port`; `[TcpEndpoint NAME]` `Address`, `Port`;
+//! and in every endpoint `Group` and the filters `AllowMsgIdOut`, `BlockMsgIdOut`,
+//! `AllowSrcCompOut`, `BlockSrcCompOut`, `AllowSrcSysOut`, `BlockSrcSysOut` and their `In`
+//! counterparts, as comma-separated lists. Keys are case-insensitive, as mavlink-router reads
+//! them. Other keys are reported as warnings, never silently ignored.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use ferrolink_runtime::mavlink::router::{ByteSet, Filter, IdSet, LinkConfig};
+use ferrolink_runtime::mavlink::signing::SecretKey;
+use serde::Deserialize;
+
+use crate::peers::Endpoint;
+
+/// An endpoint and how its links behave.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EndpointConfig {
+    /// The endpoint.
+    pub endpoint: Endpoint,
+    /// The configuration of each of its links (every peer of it).
+    pub link: LinkConfig,
+}
+
+impl EndpointConfig {
+    /// An endpoint with the default link configuration.
+    pub fn new(endpoint: Endpoint) -> Self {
+        Self {
+            endpoint,
+            link: LinkConfig::default(),
+        }
+    }
+}
+
+/// What a configuration file says.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct FileConfig {
+    /// Endpoints, in file order.
+    pub endpoints: Vec<EndpointConfig>,
+    /// Dialect files (relative paths resolved against the file's folder).
+    pub dialects: Vec<PathBuf>,
+    /// Where to write the tlog.
+    pub tlog: Option<PathBuf>,
+    /// Where to write statistics.
+    pub stats_json: Option<PathBuf>,
+    /// How long a quiet UDP peer keeps its link.
+    pub peer_expiry: Option<Duration>,
+    /// Problems that did not stop the file from being read (unknown keys).
+    pub warnings: Vec<String>,
+}
+
+/// A configuration file that cannot be used: where (line and column, when the syntax is at
+/// fault; otherwise the message names the section or endpoint) and why.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ConfigError {
+    /// 1-based line and column.
+    pub line_col: Option<(usize, usize)>,
+    /// What is wrong.
+    pub message: String,
+}
+
+/// An error that the message locates by itself.
+fn error(message: String) -> ConfigError {
+    ConfigError {
+        line_col: None,
+        message,
+    }
+}
+
+impl ConfigError {
+    /// The error as `FILE:LINE:COL: message`, or `FILE: message`.
+    pub fn in_file(&self, file: &Path) -> String {
+        match self.line_col {
+            Some((line, col)) => format!("{}:{line}:{col}: {}", file.display(), self.message),
+            None => format!("{}: {}", file.display(), self.message),
+        }
+    }
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line_col {
+            Some((line, col)) => write!(f, "{line}:{col}: {}", self.message),
+            None => f.write_str(&self.message),
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TomlFile {
+    #[serde(default)]
+    dialects: Vec<PathBuf>,
+    tlog: Option<PathBuf>,
+    stats_json: Option<PathBuf>,
+    peer_expiry: Option<f64>,
+    #[serde(default)]
+    endpoint: Vec<TomlEndpoint>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TomlEndpoint {
+    uri: String,
+    group: Option<String>,
+    #[serde(default)]
+    dedup_ms: u64,
+    #[serde(default)]
+    max_delay_ms: u64,
+    signing_key: Option<String>,
+    #[serde(default)]
+    drop_unknown_ids: bool,
+    #[serde(default)]
+    allow_msg_in: Vec<u32>,
+    #[serde(default)]
+    block_msg_in: Vec<u32>,
+    #[serde(default)]
+    allow_msg_out: Vec<u32>,
+    #[serde(default)]
+    block_msg_out: Vec<u32>,
+    #[serde(default)]
+    allow_src_sys_in: Vec<u8>,
+    #[serde(default)]
+    block_src_sys_in: Vec<u8>,
+    #[serde(default)]
+    allow_src_sys_out: Vec<u8>,
+    #[serde(default)]
+    block_src_sys_out: Vec<u8>,
+    #[serde(default)]
+    allow_src_comp_in: Vec<u8>,
+    #[serde(default)]
+    block_src_comp_in: Vec<u8>,
+    #[serde(default)]
+    allow_src_comp_out: Vec<u8>,
+    #[serde(default)]
+    block_src_comp_out: Vec<u8>,
+}
+
+/// Group names to the router's group numbers (1, 2, ... in order of appearance).
+#[derive(Default)]
+struct Groups(BTreeMap<String, u8>);
+
+impl Groups {
+    fn number(&mut self, name: &str, at: &str) -> Result<u8, ConfigError> {
+        let next = self.0.len() + 1;
+        if let Some(&n) = self.0.get(name) {
+            return Ok(n);
+        }
+        let n = u8::try_from(next).map_err(|_| error(format!("{at}: more than 255 groups")))?;
+        self.0.insert(name.to_owned(), n);
+        Ok(n)
+    }
+}
+
+fn ids(list: &[u32], at: &str, key: &str) -> Result<IdSet, ConfigError> {
+    let mut set = IdSet::EMPTY;
+    for &id in list {
+        set.insert(id).map_err(|_| {
+            error(format!(
+                "{at}: {key} lists more than {} message ids",
+                ferrolink_runtime::mavlink::router::ID_SET_CAPACITY
+            ))
+        })?;
+    }
+    Ok(set)
+}
+
+fn bytes(list: &[u8]) -> ByteSet {
+    list.iter().copied().collect()
+}
+
+/// Parses 64 hex digits into a signing key.
+fn key(text: &str, at: &str) -> Result<SecretKey, ConfigError> {
+    let raw = hex::decode(text.trim())
+        .ok()
+        .and_then(|v| <[u8; 32]>::try_from(v).ok())
+        .ok_or_else(|| error(format!("{at}: signing_key must be 64 hex digits")))?;
+    Ok(SecretKey::new(raw))
+}
+
+/// Reads our TOML form. `base` is the file's folder, for relative dialect paths.
+pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
+    let file: TomlFile = toml::from_str(text).map_err(|e| ConfigError {
+        line_col: e.span().map(|s| {
+            let before = text.get(..s.start).unwrap_or(text);
+            let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+            (
+                before.matches('\n').count() + 1,
+                before[line_start..].chars().count() + 1,
+            )
+        }),
+        message: e.message().to_owned(),
+    })?;
+    let mut groups = Groups::default();
+    let mut endpoints = Vec::new();
+    for (i, e) in file.endpoint.iter().enumerate() {
+        let at = format!("endpoint #{} ({})", i + 1, e.uri);
+        let endpoint = e
+            .uri
+            .parse::<Endpoint>()
+            .map_err(|err| error(format!("{at}: {err}")))?;
+        let link = LinkConfig {
+            inbound: Filter {
+                allow_msg: ids(&e.allow_msg_in, &at, "allow_msg_in")?,
+                block_msg: ids(&e.block_msg_in, &at, "block_msg_in")?,
+                allow_src_sys: bytes(&e.allow_src_sys_in),
+                block_src_sys: bytes(&e.block_src_sys_in),
+                allow_src_comp: bytes(&e.allow_src_comp_in),
+                block_src_comp: bytes(&e.block_src_comp_in),
+            },
+            outbound: Filter {
+                allow_msg: ids(&e.allow_msg_out, &at, "allow_msg_out")?,
+                block_msg: ids(&e.block_msg_out, &at, "block_msg_out")?,
+                allow_src_sys: bytes(&e.allow_src_sys_out),
+                block_src_sys: bytes(&e.block_src_sys_out),
+                allow_src_comp: bytes(&e.allow_src_comp_out),
+                block_src_comp: bytes(&e.block_src_comp_out),
+            },
+            group: match &e.group {
+                Some(name) => groups.number(name, &at)?,
+                None => 0,
+            },
+            dedup_window_us: e.dedup_ms.saturating_mul(1000),
+            max_delay_us: e.max_delay_ms.saturating_mul(1000),
+            require_signing: e.signing_key.as_deref().map(|k| key(k, &at)).transpose()?,
+            drop_unknown_ids: e.drop_unknown_ids,
+        };
+        endpoints.push(EndpointConfig { endpoint, link });
+    }
+    let peer_expiry = file
+        .peer_expiry
+        .map(|s| {
+            Duration::try_from_secs_f64(s).map_err(|e| error(format!("peer_expiry = {s}: {e}")))
+        })
+        .transpose()?;
+    Ok(FileConfig {
+        endpoints,
+        dialects: file.dialects.iter().map(|d| base.join(d)).collect(),
+        tlog: file.tlog,
+        stats_json: file.stats_json,
+        peer_expiry,
+        warnings: Vec::new(),
+    })
+}
+
+/// Reads mavlink-router's `main.conf`.
+pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
+    let ini = ini::Ini::load_from_str_opt(
+        text,
+        ini::ParseOption {
+            enabled_quote: true,
+            enabled_escape: false,
+            ..ini::ParseOption::default()
+        },
+    )
+    .map_err(|e| ConfigError {
+        line_col: Some((e.line, e.col)),
+        message: e.msg.to_string(),
+    })?;
+    let mut config = FileConfig::default();
+    let mut groups = Groups::default();
+    let mut dedup_us = 0;
+    let mut sections: Vec<(String, BTreeMap<String, String>)> = Vec::new();
+    for (name, props) in &ini {
+        let keys = props
+            .iter()
+            .map(|(k, v)| (k.to_ascii_lowercase(), v.trim().to_owned()))
+            .collect();
+        sections.push((name.unwrap_or("").trim().to_owned(), keys));
+    }
+    for (name, keys) in &sections {
+        let kind = name.split_whitespace().next().unwrap_or("");
+        let at = format!("[{name}]");
+        let mut used: Vec<&str> = Vec::new();
+        let mut get = |key: &'static str| {
+            used.push(key);
+            keys.get(key).map(String::as_str)
+        };
+        let number = |key: &str, value: Option<&str>| -> Result<Option<u64>, ConfigError> {
+            value
+                .map(|v| {
+                    v.parse::<u64>()
+                        .map_err(|_| error(format!("{at} {key} = {v:?}: not a number")))
+                })
+                .transpose()
+        };
+        let port = |value: Option<&str>| -> Result<u16, ConfigError> {
+            let v = value.ok_or_else(|| error(format!("{at}: Port is missing")))?;
+            v.parse::<u16>()
+                .map_err(|_| error(format!("{at} Port = {v:?}: not a port")))
+        };
+        let endpoint = match kind.to_ascii_lowercase().as_str() {
+            "" => None,
+            "general" => {
+                if let Some(p) = number("TcpServerPort", get("tcpserverport"))? {
+                    if p != 0 {
+                        let p = u16::try_from(p)
+                            .map_err(|_| error(format!("{at} TcpServerPort = {p}: not a port")))?;
+                        config
+                            .endpoints
+                            .push(EndpointConfig::new(Endpoint::TcpIn("0.0.0.0".into(), p)));
+                    }
+                }
+                if let Some(dir) = get("log") {
+                    config.tlog = Some(Path::new(dir).join("flight.tlog"));
+                }
+                dedup_us = number("DeduplicationPeriod", get("deduplicationperiod"))?
+                    .unwrap_or(0)
+                    .saturating_mul(1000);
+                // Settings without a counterpart here, accepted so a file can be reused.
+                for ignored in ["reportstats", "debugloglevel", "logmode", "mavlinkdialect"] {
+                    let _ = get(ignored);
+                }
+                None
+            }
+            "uartendpoint" => {
+                let device =
+                    get("device").ok_or_else(|| error(format!("{at}: Device is missing")))?;
+                let baud = get("baud")
+                    .and_then(|b| b.split(',').next())
+                    .map(|b| {
+                        b.trim()
+                            .parse::<u32>()
+                            .map_err(|_| error(format!("{at} Baud = {b:?}: not a number")))
+                    })
+                    .transpose()?
+                    .unwrap_or(115_200);
+                let _ = get("flowcontrol");
+                Some(Endpoint::Serial(device.to_owned(), baud))
+            }
+            "udpendpoint" => {
+                let address = get("address").unwrap_or("0.0.0.0").to_owned();
+                let port = port(get("port"))?;
+                match get("mode").map(str::to_ascii_lowercase).as_deref() {
+                    Some("server" | "eavesdropping") => Some(Endpoint::UdpIn(address, port)),
+                    Some("normal" | "client") | None => Some(Endpoint::UdpOut(address, port)),
+                    Some(other) => {
+                        return Err(error(format!(
+                            "{at} Mode = {other:?}: expected Normal, Server or Eavesdropping"
+                        )))
+                    }
+                }
+            }
+            "tcpendpoint" => {
+                let address = get("address")
+                    .ok_or_else(|| error(format!("{at}: Address is missing")))?
+                    .to_owned();
+                let _ = get("retrytimeout");
+                Some(Endpoint::TcpOut(address, port(get("port"))?))
+            }
+            _ => {
+                config
+                    .warnings
+                    .push(format!("{at}: unknown section, ignored"));
+                continue;
+            }
+        };
+        if let Some(endpoint) = endpoint {
+            let mut filter_ids = |key: &'static str| -> Result<IdSet, ConfigError> {
+                let list = list::<u32>(get(key), &at, key)?;
+                ids(&list, &at, key)
+            };
+            let mut link = LinkConfig {
+                dedup_window_us: dedup_us,
+                ..LinkConfig::default()
+            };
+            link.outbound.allow_msg = filter_ids("allowmsgidout")?;
+            link.outbound.block_msg = filter_ids("blockmsgidout")?;
+            link.inbound.allow_msg = filter_ids("allowmsgidin")?;
+            link.inbound.block_msg = filter_ids("blockmsgidin")?;
+            let mut filter_bytes = |key: &'static str| -> Result<ByteSet, ConfigError> {
+                Ok(bytes(&list::<u8>(get(key), &at, key)?))
+            };
+            link.outbound.allow_src_comp = filter_bytes("allowsrccompout")?;
+            link.outbound.block_src_comp = filter_bytes("blocksrccompout")?;
+            link.outbound.allow_src_sys = filter_bytes("allowsrcsysout")?;
+            link.outbound.block_src_sys = filter_bytes("blocksrcsysout")?;
+            link.inbound.allow_src_comp = filter_bytes("allowsrccompin")?;
+            link.inbound.block_src_comp = filter_bytes("blocksrccompin")?;
+            link.inbound.allow_src_sys = filter_bytes("allowsrcsysin")?;
+            link.inbound.block_src_sys = filter_bytes("blocksrcsysin")?;
+            if let Some(group) = get("group") {
+                link.group = groups.number(group, &at)?;
+            }
+            config.endpoints.push(EndpointConfig { endpoint, link });
+        }
+        for key in keys.keys() {
+            if !used.contains(&key.as_str()) {
+                config
+                    .warnings
+                    .push(format!("{at}: key {key:?} is not supported, ignored"));
+            }
+        }
+    }
+    Ok(config)
+}
+
+/// A comma-separated list of numbers (absent: empty).
+fn list<T: std::str::FromStr>(
+    value: Option<&str>,
+    at: &str,
+    key: &str,
+) -> Result<Vec<T>, ConfigError> {
+    let Some(value) = value else {
+        return Ok(Vec::new());
+    };
+    value
+        .split(',')
+        .map(str::trim)
+        .filter(|v| !v.is_empty())
+        .map(|v| {
+            v.parse::<T>()
+                .map_err(|_| error(format!("{at} {key}: {v:?} is not a valid number")))
+        })
+        .collect()
+}

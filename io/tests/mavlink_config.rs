@@ -1,0 +1,131 @@
+//! Router configuration files: our TOML form and mavlink-router's main.conf.
+
+use std::path::Path;
+use std::time::Duration;
+
+use ferrolink_io::mavlink::config::{from_main_conf, from_toml};
+use ferrolink_io::peers::Endpoint;
+
+#[test]
+fn toml_with_filters_groups_and_signing() {
+    let text = r#"
+dialects = ["common.xml"]
+tlog = "flight.tlog"
+peer_expiry = 2.5
+
+[[endpoint]]
+uri = "serial:///dev/ttyACM0:115200"
+
+[[endpoint]]
+uri = "udpout://127.0.0.1:14550"
+group = "radios"
+dedup_ms = 100
+max_delay_ms = 500
+allow_msg_out = [0, 30]
+block_src_sys_in = [66]
+
+[[endpoint]]
+uri = "udpin:0.0.0.0:14551"
+group = "radios"
+signing_key = "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f"
+"#;
+    let c = from_toml(text, Path::new("/etc/ferrolink")).unwrap();
+    assert_eq!(c.dialects, [Path::new("/etc/ferrolink/common.xml")]);
+    assert_eq!(c.tlog.as_deref(), Some(Path::new("flight.tlog")));
+    assert_eq!(c.peer_expiry, Some(Duration::from_millis(2500)));
+    assert_eq!(
+        c.endpoints[0].endpoint,
+        Endpoint::Serial("/dev/ttyACM0".into(), 115_200)
+    );
+    let radio = &c.endpoints[1].link;
+    assert_eq!(
+        (radio.group, radio.dedup_window_us, radio.max_delay_us),
+        (1, 100_000, 500_000)
+    );
+    assert_eq!(radio.outbound.allow_msg.as_slice(), [0, 30]);
+    assert!(radio.inbound.block_src_sys.contains(66));
+    assert!(radio.outbound.passes(30, 1, 1) && !radio.outbound.passes(31, 1, 1));
+    let second = &c.endpoints[2].link;
+    assert_eq!(second.group, 1, "same group name, same group");
+    assert!(second.require_signing.is_some());
+}
+
+#[test]
+fn toml_errors_say_where() {
+    let err = |text: &str| from_toml(text, Path::new(".")).unwrap_err().to_string();
+    insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nbogus = 1\n"), @"3:1: unknown field `bogus`, expected one of `uri`, `group`, `dedup_ms`, `max_delay_ms`, `signing_key`, `drop_unknown_ids`, `allow_msg_in`, `block_msg_in`, `allow_msg_out`, `block_msg_out`, `allow_src_sys_in`, `block_src_sys_in`, `allow_src_sys_out`, `block_src_sys_out`, `allow_src_comp_in`, `block_src_comp_in`, `allow_src_comp_out`, `block_src_comp_out`");
+    insta::assert_snapshot!(err("[[endpoint]]\nuri = \"ftp://x:1\"\n"), @r#"
+    endpoint #1 (ftp://x:1): unknown scheme "ftp" in "ftp://x:1"
+      hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD]; pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
+    "#);
+    insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nsigning_key = \"abc\"\n"), @"endpoint #1 (udpin://x:1): signing_key must be 64 hex digits");
+}
+
+#[test]
+fn mavlink_router_main_conf() {
+    let text = "
+[General]
+TcpServerPort = 5760
+ReportStats = false
+Log = /var/log/flight
+DeduplicationPeriod = 50
+
+[UartEndpoint alpha]
+Device = /dev/ttyS1
+Baud = 57600,115200
+
+[UdpEndpoint gcs]
+Mode = Normal
+Address = 127.0.0.1
+Port = 14550
+AllowMsgIdOut = 0, 30
+BlockSrcSysIn = 66
+Group = radios
+
+[UdpEndpoint listen]
+mode = server
+address = 0.0.0.0
+port = 14551
+group = radios
+
+[TcpEndpoint companion]
+Address = 10.0.0.2
+Port = 5790
+Colour = blue
+";
+    let c = from_main_conf(text).unwrap();
+    let endpoints: Vec<String> = c.endpoints.iter().map(|e| e.endpoint.to_string()).collect();
+    assert_eq!(
+        endpoints,
+        [
+            "tcpin://0.0.0.0:5760",
+            "serial:///dev/ttyS1:57600",
+            "udpout://127.0.0.1:14550",
+            "udpin://0.0.0.0:14551",
+            "tcpout://10.0.0.2:5790"
+        ]
+    );
+    assert_eq!(
+        c.tlog.as_deref(),
+        Some(Path::new("/var/log/flight/flight.tlog"))
+    );
+    let gcs = &c.endpoints[2].link;
+    assert_eq!(gcs.outbound.allow_msg.as_slice(), [0, 30]);
+    assert!(gcs.inbound.block_src_sys.contains(66));
+    assert_eq!(gcs.dedup_window_us, 50_000);
+    assert_eq!((gcs.group, c.endpoints[3].link.group), (1, 1));
+    assert_eq!(
+        c.warnings,
+        ["[TcpEndpoint companion]: key \"colour\" is not supported, ignored"]
+    );
+}
+
+#[test]
+fn main_conf_errors_say_where() {
+    let err = |text: &str| from_main_conf(text).unwrap_err().to_string();
+    insta::assert_snapshot!(err("[UdpEndpoint a]\nPort = 99999\n"), @r#"[UdpEndpoint a] Port = "99999": not a port"#);
+    insta::assert_snapshot!(err("[UdpEndpoint a]\nMode = Sideways\nPort = 1\n"), @r#"[UdpEndpoint a] Mode = "sideways": expected Normal, Server or Eavesdropping"#);
+    insta::assert_snapshot!(err("[UartEndpoint a]\nBaud = 1\n"), @"[UartEndpoint a]: Device is missing");
+    insta::assert_snapshot!(err("[UdpEndpoint a\nPort = 1\n"), @r#"3:1: expecting "[Some(']')]" but found EOF."#);
+    insta::assert_snapshot!(err("[UdpEndpoint a]\nPort = 1\nAllowMsgIdOut = 1,x\n"), @r#"[UdpEndpoint a] allowmsgidout: "x" is not a valid number"#);
+}
