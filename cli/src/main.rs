@@ -3,6 +3,7 @@
 
 mod dialect;
 mod mavlink;
+mod mavlink_stats;
 mod modrob;
 mod ndlcom;
 mod tosnet;

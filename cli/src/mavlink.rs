@@ -12,6 +12,8 @@ use ferrolink_io::mavlink::config::{self, EndpointConfig, FileConfig};
 use ferrolink_io::mavlink::{router, tlog};
 use ferrolink_io::peers::Endpoint;
 
+use ferrolink_codegen::traffic::{CsvExport, RowMeta};
+
 use crate::dialect::Dialects;
 
 #[derive(Subcommand)]
@@ -58,6 +60,21 @@ pub enum Command {
         /// The file is raw link bytes, without timestamps.
         #[arg(long)]
         raw: bool,
+        /// Also write one CSV file per message type into DIR.
+        #[arg(long, value_name = "DIR")]
+        csv: Option<PathBuf>,
+        /// The log.
+        file: PathBuf,
+    },
+    /// Per source: message rates and sequence loss of a .tlog; optionally a plot of message
+    /// rates over time.
+    Stats {
+        /// Dialect XML to name messages with; repeatable. Without it, our own definitions.
+        #[arg(long, value_name = "FILE.xml")]
+        dialect: Vec<PathBuf>,
+        /// Write the message rate over time per message type as an SVG plot.
+        #[arg(long, value_name = "FILE.svg")]
+        plot: Option<PathBuf>,
         /// The log.
         file: PathBuf,
     },
@@ -112,7 +129,17 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             router::run(&config, &stop)?;
             Ok(ExitCode::SUCCESS)
         }
-        Command::Dump { dialect, raw, file } => dump(&dialect, raw, &file),
+        Command::Dump {
+            dialect,
+            raw,
+            csv,
+            file,
+        } => dump(&dialect, raw, csv.as_deref(), &file),
+        Command::Stats {
+            dialect,
+            plot,
+            file,
+        } => crate::mavlink_stats::run(&dialect, plot.as_deref(), &file),
     }
 }
 
@@ -134,18 +161,35 @@ fn read_config(path: &Path) -> Result<FileConfig, String> {
 fn dump(
     dialect: &[PathBuf],
     raw: bool,
-    file: &PathBuf,
+    csv: Option<&Path>,
+    file: &Path,
 ) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let dialects = Dialects::load(dialect)?;
     let decoder = dialects.decoder();
     let data = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
     let mut out = BufWriter::new(io::stdout().lock());
+    let mut export = csv.map(CsvExport::new_mavlink).transpose()?;
     let mut decoded = 0u64;
     let mut unknown = 0u64;
     let mut failed: Option<io::Error> = None;
     let mut print = |record: tlog::Record<'_>| {
         let frame = &record.frame;
         let header = frame.header();
+        if let Some(export) = &mut export {
+            let meta = RowMeta {
+                t_us: record.t_us.unwrap_or(0),
+                sender: header.sysid,
+                receiver: header.compid,
+                counter: header.seq,
+            };
+            let written = match decoder.decode(frame.msg_id(), frame.payload()) {
+                Some(message) => export.write(&meta, &message),
+                None => export.write_unknown_id(&meta, Some(frame.msg_id()), frame.payload()),
+            };
+            if let Err(e) = written {
+                failed.get_or_insert(e);
+            }
+        }
         let t_us = record
             .t_us
             .map_or_else(|| "null".to_owned(), |t| t.to_string());
@@ -183,6 +227,11 @@ fn dump(
             return Ok(ExitCode::SUCCESS);
         }
         return Err(e.into());
+    }
+    if let Some(export) = export {
+        for (path, rows) in export.finish()? {
+            eprintln!("{}: {rows} rows", path.display());
+        }
     }
     writeln!(
         out,

@@ -124,3 +124,85 @@ fn every_capture_decodes_as_pymavlink_does() {
         assert!(same > 0, "{}: nothing decoded", file.display());
     }
 }
+
+/// A tlog the router wrote: three known frames from two sources with a gap in one sequence,
+/// and an unknown id.
+fn small_tlog(dir: &Path) -> PathBuf {
+    use ferrolink_io::mavlink::tlog::Writer;
+    use ferrolink_runtime::mavlink::{v2, Header};
+    let mut bytes = Vec::new();
+    let mut writer = Writer::new(&mut bytes);
+    let mut frame = |seq, sysid, id, crc_extra, payload: &[u8], t| {
+        let mut out = [0u8; v2::MAX_FRAME_LEN];
+        let n = v2::encode_raw(Header::new(seq, sysid, 1), id, crc_extra, payload, &mut out)
+            .expect("encode");
+        writer.write(t, &out[..n]).expect("write");
+    };
+    frame(0, 1, 0, 50, &[0, 0, 0, 0, 2, 3, 0x51, 4, 3], 1_000_000);
+    frame(3, 1, 0, 50, &[0, 0, 0, 0, 2, 3, 0x51, 4, 3], 2_000_000);
+    frame(0, 2, 0, 50, &[0, 0, 0, 0, 6, 8, 0, 0, 3], 2_500_000);
+    frame(1, 2, 42424, 0, &[1, 2, 3], 3_000_000);
+    let path = dir.join("small.tlog");
+    std::fs::write(&path, bytes).expect("write tlog");
+    path
+}
+
+#[test]
+fn stats_plot_and_csv() {
+    let dir = tempfile::tempdir().expect("scratch");
+    let log = small_tlog(dir.path());
+    let svg = dir.path().join("rates.svg");
+    let out = Command::new(ferrolink())
+        .args(["mavlink", "stats", "--plot"])
+        .arg(&svg)
+        .arg(&log)
+        .output()
+        .expect("run");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let row = |source: &str| {
+        text.lines()
+            .find(|l| l.starts_with(source))
+            .unwrap_or_else(|| panic!("no row for {source}:\n{text}"))
+            .split_whitespace()
+            .map(str::to_owned)
+            .collect::<Vec<_>>()
+    };
+    // frames, seconds, per s, lost, loss %
+    assert_eq!(row("1/1")[1..], ["2", "1.0", "2.0", "2", "50.00"]);
+    assert_eq!(row("2/1")[1], "2");
+    assert!(
+        text.contains("HEARTBEAT") && text.contains("#42424"),
+        "{text}"
+    );
+    let plot = std::fs::read_to_string(&svg).expect("plot written");
+    assert!(plot.starts_with("<svg") && plot.contains("HEARTBEAT"));
+
+    let csv = dir.path().join("csv");
+    let out = Command::new(ferrolink())
+        .args(["mavlink", "dump", "--csv"])
+        .arg(&csv)
+        .arg(&log)
+        .output()
+        .expect("run");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let heartbeats = std::fs::read_to_string(csv.join("HEARTBEAT.csv")).expect("csv");
+    let mut lines = heartbeats.lines();
+    assert!(lines
+        .next()
+        .is_some_and(|h| h.starts_with("t_us,sysid,compid,seq,type,autopilot")));
+    assert_eq!(lines.count(), 3);
+    let unknown = std::fs::read_to_string(csv.join("unknown.csv")).expect("unknown.csv");
+    assert!(
+        unknown.ends_with("3000000,2,1,1,42424,010203\n"),
+        "{unknown}"
+    );
+}

@@ -286,9 +286,13 @@ pub struct RowMeta {
     pub counter: u8,
 }
 
-impl RowMeta {
-    const COLUMNS: [&'static str; 4] = ["t_us", "sender", "receiver", "counter"];
+/// The columns in front of every row: NDLCom's addresses, or MAVLink's sender and sequence
+/// (which [`RowMeta`]'s `sender`, `receiver` and `counter` then carry as `sysid`, `compid` and
+/// `seq`).
+const NDLCOM_COLUMNS: [&str; 4] = ["t_us", "sender", "receiver", "counter"];
+const MAVLINK_COLUMNS: [&str; 4] = ["t_us", "sysid", "compid", "seq"];
 
+impl RowMeta {
     fn fields(&self) -> [String; 4] {
         [
             self.t_us.to_string(),
@@ -310,15 +314,14 @@ struct Sink {
 }
 
 impl Sink {
-    fn create(path: PathBuf, header: impl IntoIterator<Item = String>) -> io::Result<Self> {
+    fn create(
+        path: PathBuf,
+        columns: [&str; 4],
+        header: impl IntoIterator<Item = String>,
+    ) -> io::Result<Self> {
         let file = File::create(&path)?;
         let mut writer = csv::Writer::from_writer(BufWriter::new(file));
-        writer.write_record(
-            RowMeta::COLUMNS
-                .iter()
-                .map(|c| (*c).to_owned())
-                .chain(header),
-        )?;
+        writer.write_record(columns.iter().map(|c| (*c).to_owned()).chain(header))?;
         Ok(Sink {
             path,
             writer,
@@ -343,6 +346,7 @@ impl Sink {
 #[derive(Debug)]
 pub struct CsvExport {
     dir: PathBuf,
+    columns: [&'static str; 4],
     messages: BTreeMap<String, Sink>,
     unknown: Option<Sink>,
 }
@@ -350,9 +354,20 @@ pub struct CsvExport {
 impl CsvExport {
     /// Exports into `dir`, creating it (and its parents) if need be.
     pub fn new(dir: &Path) -> io::Result<Self> {
+        Self::with_columns(dir, NDLCOM_COLUMNS)
+    }
+
+    /// Exports MAVLink traffic into `dir`: the rows start with `t_us,sysid,compid,seq`, which
+    /// [`RowMeta`]'s `sender`, `receiver` and `counter` carry.
+    pub fn new_mavlink(dir: &Path) -> io::Result<Self> {
+        Self::with_columns(dir, MAVLINK_COLUMNS)
+    }
+
+    fn with_columns(dir: &Path, columns: [&'static str; 4]) -> io::Result<Self> {
         fs::create_dir_all(dir)?;
         Ok(CsvExport {
             dir: dir.to_owned(),
+            columns,
             messages: BTreeMap::new(),
             unknown: None,
         })
@@ -368,7 +383,7 @@ impl CsvExport {
             btree_map::Entry::Occupied(sink) => sink.into_mut(),
             btree_map::Entry::Vacant(slot) => {
                 let path = self.dir.join(format!("{name}.csv"));
-                slot.insert(Sink::create(path, columns(decoded.message))?)
+                slot.insert(Sink::create(path, self.columns, columns(decoded.message))?)
             }
         };
         sink.row(meta, decoded.values.iter().map(|(_, v)| v.to_string()))
@@ -378,18 +393,29 @@ impl CsvExport {
     /// `id` (its first byte, empty for an empty payload) and `payload_hex` (the bytes after the id,
     /// lowercase hex).
     pub fn write_unknown(&mut self, meta: &RowMeta, frame_payload: &[u8]) -> io::Result<()> {
+        match frame_payload.split_first() {
+            Some((&id, payload)) => self.write_unknown_id(meta, Some(id.into()), payload),
+            None => self.write_unknown_id(meta, None, frame_payload),
+        }
+    }
+
+    /// Appends a payload of message `id` (empty column for `None`) that could not be decoded to
+    /// [`UNKNOWN_FILE`].
+    pub fn write_unknown_id(
+        &mut self,
+        meta: &RowMeta,
+        id: Option<u32>,
+        payload: &[u8],
+    ) -> io::Result<()> {
         let sink = match self.unknown {
             Some(ref mut sink) => sink,
             ref mut slot @ None => {
                 let path = self.dir.join(UNKNOWN_FILE);
                 let header = ["id".to_owned(), "payload_hex".to_owned()];
-                slot.insert(Sink::create(path, header)?)
+                slot.insert(Sink::create(path, self.columns, header)?)
             }
         };
-        let (id, payload) = match frame_payload.split_first() {
-            Some((id, payload)) => (id.to_string(), payload),
-            None => (String::new(), frame_payload),
-        };
+        let id = id.map(|id| id.to_string()).unwrap_or_default();
         let mut hex = String::with_capacity(2 * payload.len());
         for byte in payload {
             // Writing to a String cannot fail.

@@ -760,9 +760,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R,
 
     fn count_source(&mut self, sysid: u8, compid: u8, seq: u8, len: u64, now_us: u64) {
         if let Some(source) = self.source_mut(sysid, compid) {
-            // A step back (reordering, or a duplicate that was not suppressed) is no loss.
-            let gap = seq.wrapping_sub(source.last_seq.wrapping_add(1));
-            if gap < 128 {
+            if let Some(gap) = sequence_gap(source.last_seq, seq) {
                 source.lost += u64::from(gap);
                 source.last_seq = seq;
             }
@@ -802,6 +800,14 @@ impl Link {
             Err(_) => Err(Drop::BadSignature),
         }
     }
+}
+
+/// How many frames of a source went missing between sequence numbers `last` and `seq`: `None`
+/// for a step back (reordering, or a duplicate), which is no loss. A jump of 128 or more counts
+/// as a step back, since the 8-bit sequence cannot tell the two apart.
+pub fn sequence_gap(last: u8, seq: u8) -> Option<u8> {
+    let gap = seq.wrapping_sub(last.wrapping_add(1));
+    (gap < 128).then_some(gap)
 }
 
 /// Puts `item` into the first free slot, or in place of the one with the smallest `age` key;
