@@ -1,8 +1,9 @@
 //! Endpoints with many peers, for routers and connections: every peer is its own link.
 //!
-//! An [`Endpoint`] is opened with [`open`], which starts its threads and reports on one channel:
-//! [`Event::Up`] when a peer appears (with a [`Sender`] to write to it), [`Event::Rx`] for every
-//! read, [`Event::Down`] when it goes away. Peers are numbered by [`PeerId`], never reused.
+//! An [`Endpoint`] is opened with [`open`], which starts its threads and reports to one [`Sink`],
+//! called on those threads: [`Event::Up`] when a peer appears (with a [`Sender`] to write to
+//! it), [`Event::Rx`] for every read, [`Event::Down`] when it goes away. Peers are numbered by
+//! [`PeerId`], never reused.
 //!
 //! | URI | peers | |
 //! |-----|-------|-|
@@ -19,7 +20,8 @@
 //!
 //! Threads, not an async runtime: one blocking reader per socket or client, parked in the kernel
 //! while nothing arrives (idle CPU is a wake-up every 200 ms per reader, to notice shutdown).
-//! Writes go straight to the socket from the caller's thread.
+//! The sink runs on the reader's thread, so a router can route a datagram the moment it is read,
+//! with no hand-over between threads; writes go straight to the socket.
 
 use std::collections::HashMap;
 use std::fmt;
@@ -27,7 +29,6 @@ use std::io::{self, Read, Write};
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs, UdpSocket};
 use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::sync::mpsc;
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread;
 use std::time::{Duration, Instant};
@@ -183,7 +184,7 @@ fn next_peer() -> PeerId {
 
 /// What an endpoint reports.
 #[derive(Debug)]
-pub enum Event {
+pub enum Event<'a> {
     /// A peer appeared. `name` says who it is (`udpin://0.0.0.0:14550 <- 127.0.0.1:40000`).
     Up {
         /// The endpoint's index, as given to [`open`].
@@ -200,7 +201,7 @@ pub enum Event {
         /// The peer.
         peer: PeerId,
         /// The bytes (one datagram, or what one read returned).
-        bytes: Vec<u8>,
+        bytes: &'a [u8],
         /// When they were read.
         at: Instant,
     },
@@ -212,6 +213,10 @@ pub enum Event {
         why: String,
     },
 }
+
+/// Where an endpoint reports its events, called on the endpoint's threads. Returning `false`
+/// stops the thread that called (nobody listens any more).
+pub type Sink = Arc<dyn Fn(Event<'_>) -> bool + Send + Sync>;
 
 /// Writes to one peer. Cloning shares the socket.
 #[derive(Debug, Clone)]
@@ -283,13 +288,13 @@ fn resolve(host: &str, port: u16) -> io::Result<SocketAddr> {
         .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, format!("{host:?} has no address")))
 }
 
-/// Opens endpoint number `index` and reports its peers on `events`. Sockets are bound (and a
+/// Opens endpoint number `index` and reports its peers to `events`. Sockets are bound (and a
 /// server listens) before this returns; `tcpout` and `serial` connect in the background.
 pub fn open(
     index: usize,
     endpoint: &Endpoint,
     options: Options,
-    events: mpsc::Sender<Event>,
+    events: Sink,
 ) -> io::Result<Handle> {
     let stop = Arc::new(AtomicBool::new(false));
     let name = endpoint.to_string();
@@ -324,7 +329,7 @@ pub fn open(
                 name,
                 sender: Sender(SenderKind::Udp(socket.clone(), to)),
             };
-            if events.send(up).is_err() {
+            if !events(up) {
                 return Err(io::Error::other(format!(
                     "{uri}: nobody listens for events"
                 )));
@@ -394,7 +399,7 @@ fn udp_in(
     socket: UdpSocket,
     expiry: Duration,
     stop: &AtomicBool,
-    events: &mpsc::Sender<Event>,
+    events: &Sink,
 ) {
     let socket = Arc::new(socket);
     let _ = socket.set_read_timeout(Some(POLL));
@@ -414,7 +419,7 @@ fn udp_in(
         });
         for (peer, addr) in gone {
             let why = format!("{addr} quiet for {} s", expiry.as_secs_f64());
-            if events.send(Event::Down { peer, why }).is_err() {
+            if !events(Event::Down { peer, why }) {
                 return;
             }
         }
@@ -440,7 +445,7 @@ fn udp_in(
                     name: format!("{name} <- {from}"),
                     sender: Sender(SenderKind::Udp(socket.clone(), from)),
                 };
-                if events.send(up).is_err() {
+                if !events(up) {
                     return;
                 }
                 peer
@@ -448,22 +453,16 @@ fn udp_in(
         };
         let rx = Event::Rx {
             peer,
-            bytes: buf[..n].to_vec(),
+            bytes: &buf[..n],
             at: now,
         };
-        if events.send(rx).is_err() {
+        if !events(rx) {
             return;
         }
     }
 }
 
-fn udp_out(
-    peer: PeerId,
-    socket: Arc<UdpSocket>,
-    to: SocketAddr,
-    stop: &AtomicBool,
-    events: &mpsc::Sender<Event>,
-) {
+fn udp_out(peer: PeerId, socket: Arc<UdpSocket>, to: SocketAddr, stop: &AtomicBool, events: &Sink) {
     let _ = socket.set_read_timeout(Some(POLL));
     let mut buf = vec![0u8; 65_536];
     while !stop.load(Ordering::Relaxed) {
@@ -472,10 +471,10 @@ fn udp_out(
             Ok((n, from)) if from == to => {
                 let rx = Event::Rx {
                     peer,
-                    bytes: buf[..n].to_vec(),
+                    bytes: &buf[..n],
                     at: Instant::now(),
                 };
-                if events.send(rx).is_err() {
+                if !events(rx) {
                     return;
                 }
             }
@@ -486,13 +485,7 @@ fn udp_out(
     }
 }
 
-fn tcp_in(
-    index: usize,
-    name: &str,
-    listener: &TcpListener,
-    stop: &Arc<AtomicBool>,
-    events: &mpsc::Sender<Event>,
-) {
+fn tcp_in(index: usize, name: &str, listener: &TcpListener, stop: &Arc<AtomicBool>, events: &Sink) {
     while !stop.load(Ordering::Relaxed) {
         match listener.accept() {
             Ok((stream, from)) => {
@@ -514,7 +507,7 @@ fn stream_peer(
     name: &str,
     stream: TcpStream,
     stop: &AtomicBool,
-    events: &mpsc::Sender<Event>,
+    events: &Sink,
 ) -> Option<String> {
     let setup = stream
         .set_nonblocking(false)
@@ -543,7 +536,7 @@ fn read_peer(
     mut reader: impl Read,
     sender: Sender,
     stop: &AtomicBool,
-    events: &mpsc::Sender<Event>,
+    events: &Sink,
 ) -> Option<String> {
     let peer = next_peer();
     let up = Event::Up {
@@ -552,7 +545,7 @@ fn read_peer(
         name: name.to_owned(),
         sender,
     };
-    events.send(up).ok()?;
+    events(up).then_some(())?;
     let mut buf = vec![0u8; 16 * 1024];
     let why = loop {
         if stop.load(Ordering::Relaxed) {
@@ -563,32 +556,24 @@ fn read_peer(
             Ok(n) => {
                 let rx = Event::Rx {
                     peer,
-                    bytes: buf[..n].to_vec(),
+                    bytes: &buf[..n],
                     at: Instant::now(),
                 };
-                events.send(rx).ok()?;
+                events(rx).then_some(())?;
             }
             Err(e) if is_timeout(&e) => {}
             Err(e) => break e.to_string(),
         }
     };
-    events
-        .send(Event::Down {
-            peer,
-            why: why.clone(),
-        })
-        .ok()?;
+    events(Event::Down {
+        peer,
+        why: why.clone(),
+    })
+    .then_some(())?;
     Some(why)
 }
 
-fn tcp_out(
-    index: usize,
-    name: &str,
-    host: &str,
-    port: u16,
-    stop: &AtomicBool,
-    events: &mpsc::Sender<Event>,
-) {
+fn tcp_out(index: usize, name: &str, host: &str, port: u16, stop: &AtomicBool, events: &Sink) {
     let first = Duration::from_millis(50);
     let mut backoff = first;
     while !stop.load(Ordering::Relaxed) {
@@ -609,14 +594,7 @@ fn tcp_out(
     }
 }
 
-fn serial(
-    index: usize,
-    name: &str,
-    path: &str,
-    baud: u32,
-    stop: &AtomicBool,
-    events: &mpsc::Sender<Event>,
-) {
+fn serial(index: usize, name: &str, path: &str, baud: u32, stop: &AtomicBool, events: &Sink) {
     let mut reported = false;
     while !stop.load(Ordering::Relaxed) {
         let opened = serialport::new(path, baud)

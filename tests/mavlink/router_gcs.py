@@ -17,8 +17,12 @@ last line is `N passed, M failed`; the exit status is 0 only if nothing failed):
                 uploads a mission and downloads it back (MissionRaw), and reads the
                 position and battery the vehicle publishes.  The vehicle talks to
                 the router's udpin endpoint, the router's udpout endpoint talks to
-                the ground station.  Needs the `mavsdk` package, version 4 or later
-                (the native binding that embeds the MAVSDK C++ core).
+                the ground station.  Needs the `mavsdk` package, version 4 or later:
+                the native binding that embeds the MAVSDK C++ core in-process (it has
+                no mavsdk_server and no gRPC).  Vehicle and ground station are two
+                MAVSDK instances in two processes, configured with
+                ComponentType.AUTOPILOT (sysid 1, compid 1, set explicitly) and
+                ComponentType.GROUND_STATION (MAVSDK's 245/190).
   mavproxy      MAVProxy connects over TCP (router tcpin) and fetches the parameters
                 of a small pymavlink vehicle (sysid 1, compid 1, on the router's
                 udpin) that serves 20 parameters.  The vehicle leaves one parameter
@@ -27,7 +31,8 @@ last line is `N passed, M failed`; the exit status is 0 only if nothing failed):
                 FTP parameter download with a NAK so MAVProxy falls back to the
                 parameter protocol.  Passes when MAVProxy reports and saves all 20
                 parameters with the vehicle's values.  Needs the `MAVProxy` package.
-  tlog_matches  The router tlog of every check above that ran: every record is an
+  tlog_matches  The router tlog of every check above that ran (run alone, those an
+                earlier run left in --workdir): every record is an
                 8-byte big-endian timestamp and one well-formed MAVLink frame (CRC
                 checked for the ids the dialect knows), timestamps never go back and
                 lie within the router's lifetime, pymavlink
@@ -39,6 +44,10 @@ Every check starts its own router, with its tlog in --workdir, and stops it with
 SIGTERM, which must end it with status 0.  A check whose package is missing
 prints `skip` and does not count as failed.
 
+--workdir gets NAME.tlog, NAME.stats.jsonl and NAME.router.log per check, and
+NAME/ with the helpers' logs (MAVProxy's own state, mav.parm and mav.tlog, in
+mavproxy/state/).
+
 The script also runs its own helper processes (vehicles, the MAVSDK ground
 station): `router_gcs.py --role ROLE ...`.  They are internal.
 """
@@ -49,6 +58,7 @@ import importlib.util
 import json
 import math
 import os
+import re
 import signal
 import socket
 import struct
@@ -153,9 +163,13 @@ def read_text(path, limit=None):
     return text
 
 
+ANSI = re.compile(r"\x1b\[[0-9;]*m")
+
+
 def tail(path, n=8):
-    lines = read_text(path).strip().splitlines()
-    return " | ".join(lines[-n:])
+    """The last lines of a log, on one line, without terminal colours."""
+    lines = ANSI.sub("", read_text(path)).strip().splitlines()
+    return " | ".join(line.strip() for line in lines[-n:])
 
 
 def read_json_lines(path):
@@ -227,7 +241,8 @@ class Router:
         self.tlog = os.path.join(args.workdir, name + ".tlog")
         self.stats = os.path.join(args.workdir, name + ".stats.jsonl")
         self.out_path = os.path.join(args.workdir, name + ".router.log")
-        for path in (self.tlog, self.stats):
+        self.run_path = os.path.join(args.workdir, name + ".run.json")
+        for path in (self.tlog, self.stats, self.run_path):
             if os.path.exists(path):
                 os.remove(path)
         self.dialect = os.path.join(args.dialect_dir, dialect)
@@ -280,6 +295,7 @@ class Router:
             raise CheckFailed("router still running %.0f s after SIGTERM" % timeout)
         finally:
             self.t_stop_us = now_us()
+            self.save_run()
         if rc != 0:
             raise CheckFailed("router exited with status %s after SIGTERM: %s"
                               % (rc, " | ".join(self.lines[-5:])))
@@ -294,6 +310,14 @@ class Router:
             self.p.wait(5)
         if self.t_stop_us is None:
             self.t_stop_us = now_us()
+            self.save_run()
+
+    def save_run(self):
+        """What tlog_matches needs to check this tlog in a later invocation."""
+        with open(self.run_path, "w") as f:
+            json.dump({"name": self.name, "tlog": self.tlog, "stats": self.stats,
+                       "dialect": self.dialect, "t_start_us": self.t_start_us,
+                       "t_stop_us": self.t_stop_us}, f)
 
 
 def wait_for_file_text(path, needles, timeout, procs=()):
@@ -353,17 +377,17 @@ def check_mavsdk(args):
         vehicle = Proc("vehicle", script_cmd("mavsdk-vehicle", "--url", "udpout://%s:%d" % (HOST, p_vehicle),
                                              "--out", vehicle_events, "--duration", "55"),
                        os.path.join(wd, "vehicle.log"))
-        if not wait_for_file_text(vehicle_events, ['"event": "ready"'], 15, [vehicle]):
+        if not wait_for_file_text(vehicle_events, ['"event": "ready"'], 10, [vehicle]):
             raise CheckFailed("MAVSDK vehicle did not come up: %s" % tail(vehicle.log_path))
         gcs = Proc("gcs", script_cmd("mavsdk-gcs", "--url", "udpin://%s:%d" % (HOST, p_gcs),
-                                     "--out", gcs_result, "--duration", "40"),
+                                     "--out", gcs_result, "--duration", "35"),
                    os.path.join(wd, "gcs.log"))
         try:
             gcs.p.wait(45)
         except subprocess.TimeoutExpired:
             pass
         gcs_rc, _ = gcs.stop(signal.SIGTERM, 5)
-        vehicle_rc, vehicle_clean = vehicle.stop(signal.SIGTERM, 10)
+        _, vehicle_clean = vehicle.stop(signal.SIGTERM, 10)
         router.stop()
 
         failures = []
@@ -514,7 +538,6 @@ async def role_mavsdk_vehicle(a):
             t.cancel()
         await asyncio.gather(*tasks, return_exceptions=True)
         out.write({"event": "stopping"})
-        del params, mission, telemetry, component
     return 0
 
 
@@ -544,13 +567,19 @@ async def role_mavsdk_gcs(a):
         res["summary"] = ", ".join(steps)
         out.write(res)
 
-    cfg = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
-    async with Mavsdk(cfg) as mavsdk:
+    class Abort(Exception):
+        pass
+
+    def need(ok, msg):
+        if not ok:
+            fail(msg)
+            raise Abort()
+
+    async def session(mavsdk):
+        res["stage"] = "discovering the autopilot"
         await mavsdk.add_any_connection(a.url)
         system = await mavsdk.first_autopilot(15.0)
-        if system is None:
-            fail("no autopilot discovered within 15 s")
-            return 1
+        need(system is not None, "no autopilot discovered within 15 s")
         res["sysid"] = await system.get_system_id()
         res["component_ids"] = sorted(await system.component_ids())
         if res["sysid"] != 1 or 1 not in res["component_ids"]:
@@ -559,12 +588,9 @@ async def role_mavsdk_gcs(a):
         step("autopilot found")
 
         # Parameters: list them all, set an int and a float one.
+        res["stage"] = "listing parameters"
         param = ParamAsync(system)
-        try:
-            allp = await asyncio.wait_for(param.get_all_params(), 15)
-        except Exception as e:
-            fail("get_all_params: %r" % e)
-            return 1
+        allp = await param.get_all_params()
         ints = {p.name: p.value for p in allp.int_params}
         floats = {p.name: p.value for p in allp.float_params}
         if ints != MAVSDK_INT_PARAMS:
@@ -573,47 +599,39 @@ async def role_mavsdk_gcs(a):
                 same_float(floats[k], v, 1e-6) for k, v in MAVSDK_FLOAT_PARAMS.items()):
             fail("float params listed %s, vehicle has %s" % (floats, MAVSDK_FLOAT_PARAMS))
         step("%d params listed" % (len(ints) + len(floats)))
-        try:
-            await asyncio.wait_for(param.set_param_int(*MAVSDK_SET_INT), 10)
-            await asyncio.wait_for(param.set_param_float(*MAVSDK_SET_FLOAT), 10)
-            got_i = await asyncio.wait_for(param.get_param_int(MAVSDK_SET_INT[0]), 10)
-            got_f = await asyncio.wait_for(param.get_param_float(MAVSDK_SET_FLOAT[0]), 10)
-        except Exception as e:
-            fail("set/get param: %r" % e)
-            return 1
+        res["stage"] = "setting parameters"
+        await param.set_param_int(*MAVSDK_SET_INT)
+        await param.set_param_float(*MAVSDK_SET_FLOAT)
+        got_i = await param.get_param_int(MAVSDK_SET_INT[0])
+        got_f = await param.get_param_float(MAVSDK_SET_FLOAT[0])
         if got_i != MAVSDK_SET_INT[1] or not same_float(got_f, MAVSDK_SET_FLOAT[1], 1e-6):
             fail("after set, %s=%s %s=%s" % (MAVSDK_SET_INT[0], got_i,
                                              MAVSDK_SET_FLOAT[0], got_f))
         step("int and float param set")
 
         # Mission: upload, download, compare.
+        res["stage"] = "uploading the mission"
         mission = MissionRawAsync(system)
         items = [MissionItem(seq=s, frame=f, command=c, current=cur, autocontinue=ac,
                              param1=p1, param2=p2, param3=p3, param4=p4, x=x, y=y, z=z,
                              mission_type=0)
                  for (s, f, c, cur, ac, p1, p2, p3, p4, x, y, z) in mission_items_spec()]
-        try:
-            await asyncio.wait_for(mission.upload_mission(items), 20)
-            step("mission uploaded")
-            down = await asyncio.wait_for(mission.download_mission(), 20)
-        except Exception as e:
-            fail("mission upload/download: %r" % e)
-            return 1
+        await mission.upload_mission(items)
+        step("mission uploaded")
+        res["stage"] = "downloading the mission"
+        down = await mission.download_mission()
         diff = compare_mission([item_to_dict(i) for i in down])
         if diff:
             fail("mission downloaded back: " + diff)
         step("%d mission items downloaded" % len(down))
 
         # Telemetry the vehicle's TelemetryServer publishes.
+        res["stage"] = "reading telemetry"
         telemetry = TelemetryAsync(system)
-        try:
-            pos = await asyncio.wait_for(first_matching(
-                telemetry.subscribe_position(), lambda p: not math.isnan(p.latitude_deg)), 10)
-            bat = await asyncio.wait_for(first_matching(
-                telemetry.subscribe_battery(), lambda b: not math.isnan(b.voltage_v)), 10)
-        except Exception as e:
-            fail("telemetry: %r" % e)
-            return 1
+        pos = await first_matching(telemetry.subscribe_position(),
+                                   lambda p: not math.isnan(p.latitude_deg))
+        bat = await first_matching(telemetry.subscribe_battery(),
+                                   lambda b: not math.isnan(b.voltage_v))
         if not (same_float(pos.latitude_deg, TEL_LAT, 0, 1e-6)
                 and same_float(pos.longitude_deg, TEL_LON, 0, 1e-6)
                 and same_float(pos.absolute_altitude_m, TEL_ALT_ABS, 0, 0.01)
@@ -625,10 +643,21 @@ async def role_mavsdk_gcs(a):
             fail("battery %s, vehicle publishes %s V %s" % (bat, TEL_BATT_V, TEL_BATT_FRACTION))
         step("position %.6f,%.6f and battery %.2f V %.0f%% read"
              % (pos.latitude_deg, pos.longitude_deg, bat.voltage_v, bat.remaining_percent))
+        res["stage"] = "done"
         res["finished"] = True
         out.write(res)
-        del param, mission, telemetry, system
-    return 0 if not res["failures"] else 1
+
+    cfg = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
+    async with Mavsdk(cfg) as mavsdk:
+        try:
+            await asyncio.wait_for(session(mavsdk), a.duration)
+        except Abort:
+            pass
+        except asyncio.TimeoutError:
+            fail("timed out after %.0f s while %s" % (a.duration, res.get("stage")))
+        except Exception as e:  # MAVSDK reports a failed request as an exception
+            fail("%s: %s: %s" % (res.get("stage"), type(e).__name__, e))
+    return 0 if res["finished"] and not res["failures"] else 1
 
 
 # --------------------------------------------------------------------------
@@ -660,7 +689,7 @@ def check_mavproxy(args):
         vehicle = Proc("vehicle", script_cmd("param-vehicle", "--url", "udpout:%s:%d" % (HOST, p_vehicle),
                                              "--out", vehicle_events, "--duration", "55"),
                        os.path.join(wd, "vehicle.log"))
-        if not wait_for_file_text(vehicle_events, ['"event": "ready"'], 15, [vehicle]):
+        if not wait_for_file_text(vehicle_events, ['"event": "ready"'], 10, [vehicle]):
             raise CheckFailed("pymavlink vehicle did not come up: %s" % tail(vehicle.log_path))
         env = dict(os.environ)
         env.update({"HOME": home, "PYTHONUNBUFFERED": "1", "MPLBACKEND": "Agg"})
@@ -671,16 +700,16 @@ def check_mavproxy(args):
         t_mp = time.monotonic()
         mavproxy = Proc("mavproxy", cmd, os.path.join(wd, "mavproxy.log"), env=env, cwd=wd)
         n = len(param_vehicle_table())
-        got = wait_for_file_text(mavproxy.log_path, ["Saved %d parameters to" % n], 40, [mavproxy])
+        got = wait_for_file_text(mavproxy.log_path, ["Saved %d parameters to" % n], 35, [mavproxy])
         elapsed = time.monotonic() - t_mp
         time.sleep(0.5)  # let the file be written completely
         mavproxy.stop(signal.SIGTERM, 10)
-        vehicle_rc, vehicle_clean = vehicle.stop(signal.SIGTERM, 10)
+        _, vehicle_clean = vehicle.stop(signal.SIGTERM, 10)
         router.stop()
 
         log = read_text(mavproxy.log_path)
         if not got:
-            raise CheckFailed("MAVProxy did not report 'Saved %d parameters' within 40 s: %s"
+            raise CheckFailed("MAVProxy did not report 'Saved %d parameters' within 35 s: %s"
                               % (n, tail(mavproxy.log_path)))
         failures = []
         if "Received %d parameters" % n not in log:
@@ -893,7 +922,10 @@ def check_one_tlog(router):
     if not os.path.isfile(path):
         raise CheckFailed("%s: no tlog written" % router.name)
     mod = dialect_module(router.dialect)
-    records = parse_tlog(path, mod)
+    try:
+        records = parse_tlog(path, mod)
+    except CheckFailed as e:
+        raise CheckFailed("%s: %s" % (router.name, e))
     if not records:
         raise CheckFailed("%s: tlog is empty" % router.name)
     prev = 0
@@ -936,15 +968,20 @@ def check_one_tlog(router):
                               % (router.name, i, rec[:5], dec))
 
     # The router's own count of received frames (last --stats-json line, at exit).
+    # Per source (sysid, compid): a link that went away (MAVProxy closing its TCP
+    # connection) is no longer listed under "links", its sources still are.
     stats = read_json_lines(router.stats)
     if not stats:
         raise CheckFailed("%s: --stats-json file is empty" % router.name)
     last = stats[-1]
-    rx = sum(link.get("rx_frames", 0) for link in last.get("links", []))
-    crc_fail = sum(link.get("crc_failures", 0) for link in last.get("links", []))
-    if rx != len(records):
-        raise CheckFailed("%s: router stats count %d received frames, tlog has %d records"
-                          % (router.name, rx, len(records)))
+    if last.get("sources_evicted", 0) == 0:
+        rx = sum(src.get("rx_frames", 0) for src in last.get("sources", []))
+        if rx != len(records):
+            raise CheckFailed("%s: router stats count %d received frames over all sources, "
+                              "tlog has %d records" % (router.name, rx, len(records)))
+    crc_fail = 0
+    for line in stats:  # the largest count any link ever showed
+        crc_fail = max(crc_fail, sum(link.get("crc_failures", 0) for link in line.get("links", [])))
     if crc_fail:
         raise CheckFailed("%s: router counted %d CRC failures" % (router.name, crc_fail))
     unknown = sum(1 for r in records if not r[5])
@@ -952,12 +989,32 @@ def check_one_tlog(router):
         router.name, len(records), unknown, (records[-1][0] - records[0][0]) / 1e6)
 
 
+class SavedRun:
+    """A router run of an earlier invocation, from its NAME.run.json."""
+
+    def __init__(self, path):
+        with open(path) as f:
+            for key, value in json.load(f).items():
+                setattr(self, key, value)
+
+
 def check_tlog_matches(args):
-    if not args.tlogs:
-        raise CheckSkipped("no check that writes a router tlog ran here (run with mavsdk and/or mavproxy)")
+    if importlib.util.find_spec("pymavlink") is None:
+        raise CheckSkipped("Python package 'pymavlink' is not installed")
+    runs = list(args.tlogs)
+    if not runs:
+        # Nothing ran in this invocation (--only tlog_matches): check the tlogs
+        # an earlier run left in --workdir.
+        for name in ("mavsdk", "mavproxy"):
+            path = os.path.join(args.workdir, name + ".run.json")
+            if os.path.isfile(path):
+                runs.append(SavedRun(path))
+    if not runs:
+        raise CheckSkipped("no router tlog to check: run it with mavsdk and/or mavproxy, "
+                           "or after them with the same --workdir")
     notes = []
     failures = []
-    for router in args.tlogs:
+    for router in runs:
         try:
             notes.append(check_one_tlog(router))
         except CheckFailed as e:

@@ -20,7 +20,7 @@ pub mod tlog;
 
 use std::collections::{HashMap, VecDeque};
 use std::io;
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use ferrolink_runtime::mavlink::parser::{Feed, ParsedFrame, Parser};
@@ -104,6 +104,13 @@ struct Peer {
     parser: Parser,
 }
 
+/// An endpoint event, moved to the connection's thread.
+enum Owned {
+    Up(PeerId, Sender),
+    Rx(PeerId, Vec<u8>),
+    Down(PeerId),
+}
+
 /// A MAVLink connection on one endpoint URI (see [`crate::peers`] for the forms), blocking.
 ///
 /// Frames are received from every peer of the endpoint (each with its own stream parser, so
@@ -114,7 +121,7 @@ pub struct Connection {
     uri: Endpoint,
     table: &'static [MessageMeta],
     _handle: peers::Handle,
-    events: mpsc::Receiver<Event>,
+    events: mpsc::Receiver<Owned>,
     peers: HashMap<PeerId, Peer>,
     queue: VecDeque<Frame>,
     sysid: u8,
@@ -145,7 +152,15 @@ impl Connection {
             .parse()
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
         let (tx, events) = mpsc::channel();
-        let handle = peers::open(0, &endpoint, peers::Options::default(), tx)?;
+        let sink: peers::Sink = Arc::new(move |event| {
+            let owned = match event {
+                Event::Up { peer, sender, .. } => Owned::Up(peer, sender),
+                Event::Rx { peer, bytes, .. } => Owned::Rx(peer, bytes.to_vec()),
+                Event::Down { peer, .. } => Owned::Down(peer),
+            };
+            tx.send(owned).is_ok()
+        });
+        let handle = peers::open(0, &endpoint, peers::Options::default(), sink)?;
         Ok(Self {
             uri: endpoint,
             table,
@@ -238,13 +253,13 @@ impl Connection {
         }
     }
 
-    fn handle(&mut self, event: Event) {
+    fn handle(&mut self, event: Owned) {
         match event {
-            Event::Up { peer, sender, .. } => {
+            Owned::Up(peer, sender) => {
                 let parser = Parser::new(self.table).pass_unknown_ids(self.pass_unknown);
                 self.peers.insert(peer, Peer { sender, parser });
             }
-            Event::Rx { peer, bytes, .. } => {
+            Owned::Rx(peer, bytes) => {
                 if let Some(p) = self.peers.get_mut(&peer) {
                     let mut input = bytes.as_slice();
                     while let Feed::Frame { frame, remaining } = p.parser.feed(input) {
@@ -253,7 +268,7 @@ impl Connection {
                     }
                 }
             }
-            Event::Down { peer, .. } => {
+            Owned::Down(peer) => {
                 self.peers.remove(&peer);
             }
         }

@@ -10,7 +10,7 @@ use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
 use ferrolink_runtime::mavlink::router::{LinkCounters, Router, MAX_LINKS};
@@ -50,99 +50,67 @@ struct Link {
     tx_errors: u64,
 }
 
-/// Runs the router until `run_for` elapses or `stop` is set. Prints `ready` on stdout once
-/// every endpoint is bound and listening.
-pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
-    let (tx, rx) = mpsc::channel();
-    let options = peers::Options {
-        peer_expiry: config.peer_expiry.unwrap_or(peers::DEFAULT_PEER_EXPIRY),
-    };
-    let mut handles = Vec::new();
-    for (i, endpoint) in config.endpoints.iter().enumerate() {
-        handles.push(peers::open(i, &endpoint.endpoint, options, tx.clone())?);
-    }
-    drop(tx);
-    let mut tlog = match &config.tlog {
-        Some(path) => Some(tlog::Writer::new(BufWriter::new(File::create(path)?))),
-        None => None,
-    };
-    let mut stats_json = match &config.stats_json {
-        Some(path) => Some(BufWriter::new(File::create(path)?)),
-        None => None,
-    };
-    let mut router: Box<Daemon> = Box::new(Router::new(config.table));
-    let mut links: HashMap<PeerId, Link> = HashMap::new();
-    let mut by_slot: Vec<Option<PeerId>> = vec![None; MAX_LINKS];
-    let mut refused = 0u64;
-    let start = Instant::now();
-    let deadline = config.run_for.map(|d| start + d);
-    let mut next_json = start + Duration::from_secs(1);
-    let mut next_table = config.stats_every.map(|d| start + d);
-    {
-        let mut out = io::stdout().lock();
-        writeln!(
-            out,
-            "ready: routing {} endpoint(s), {} message(s) known",
-            config.endpoints.len(),
-            config.table.len()
-        )?;
-        out.flush()?;
-    }
-    loop {
-        let now = Instant::now();
-        if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| now >= d) {
-            break;
-        }
-        let mut wake = now + Duration::from_millis(200);
-        for t in [Some(next_json), next_table, deadline]
-            .into_iter()
-            .flatten()
-        {
-            wake = wake.min(t);
-        }
-        match rx.recv_timeout(wake.saturating_duration_since(now)) {
-            Ok(Event::Up {
+/// What the endpoint threads share: they route each read on their own thread, under this lock.
+struct State {
+    router: Box<Daemon>,
+    endpoints: Vec<EndpointConfig>,
+    links: HashMap<PeerId, Link>,
+    by_slot: Vec<Option<PeerId>>,
+    tlog: Option<tlog::Writer<BufWriter<File>>>,
+    tlog_error: Option<io::Error>,
+    refused: u64,
+}
+
+impl State {
+    fn handle(&mut self, event: Event<'_>) {
+        match event {
+            Event::Up {
                 endpoint,
                 peer,
                 name,
                 sender,
-            }) => {
-                let link = config
+            } => {
+                let link = self
                     .endpoints
                     .get(endpoint)
                     .map(|e| e.link.clone())
                     .unwrap_or_default();
-                match router.open_link(link) {
-                    Some(slot) => {
-                        by_slot[slot] = Some(peer);
-                        eprintln!("link up: {name}");
-                        links.insert(
-                            peer,
-                            Link {
-                                slot,
-                                name,
-                                sender,
-                                tx_errors: 0,
-                            },
-                        );
-                    }
-                    None => {
-                        refused += 1;
-                        eprintln!("link refused: {name}: all {MAX_LINKS} links in use");
-                    }
-                }
+                let Some(slot) = self.router.open_link(link) else {
+                    self.refused += 1;
+                    eprintln!("link refused: {name}: all {MAX_LINKS} links in use");
+                    return;
+                };
+                self.by_slot[slot] = Some(peer);
+                eprintln!("link up: {name}");
+                let tx_errors = 0;
+                self.links.insert(
+                    peer,
+                    Link {
+                        slot,
+                        name,
+                        sender,
+                        tx_errors,
+                    },
+                );
             }
-            Ok(Event::Rx { peer, bytes, at }) => {
-                let Some(from) = links.get(&peer).map(|l| l.slot) else {
-                    continue;
+            Event::Rx { peer, bytes, at } => {
+                let Some(from) = self.links.get(&peer).map(|l| l.slot) else {
+                    return;
                 };
                 let now_us = unix_us();
                 let rx_us = now_us.saturating_sub(at.elapsed().as_micros() as u64);
-                let mut log_error = None;
-                router.receive(from, &bytes, rx_us, now_us, |routed| {
-                    if let Some(log) = &mut tlog {
+                let State {
+                    router,
+                    links,
+                    by_slot,
+                    tlog,
+                    tlog_error,
+                    ..
+                } = self;
+                router.receive(from, bytes, rx_us, now_us, |routed| {
+                    if let Some(log) = tlog {
                         if let Err(e) = log.write(rx_us, routed.bytes) {
-                            log_error = Some(e);
+                            tlog_error.get_or_insert(e);
                         }
                     }
                     let mut to = routed.to;
@@ -161,42 +129,111 @@ pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
                         }
                     }
                 });
-                if let Some(e) = log_error {
-                    return Err(io::Error::new(e.kind(), format!("writing the tlog: {e}")));
-                }
             }
-            Ok(Event::Down { peer, why }) => {
-                if let Some(link) = links.remove(&peer) {
-                    router.close_link(link.slot);
-                    by_slot[link.slot] = None;
+            Event::Down { peer, why } => {
+                if let Some(link) = self.links.remove(&peer) {
+                    self.router.close_link(link.slot);
+                    self.by_slot[link.slot] = None;
                     eprintln!("link down: {}: {why}", link.name);
                 }
             }
-            Err(mpsc::RecvTimeoutError::Timeout) => {}
-            Err(mpsc::RecvTimeoutError::Disconnected) => break,
         }
+    }
+}
+
+fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
+    state.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Runs the router until `run_for` elapses or `stop` is set. Prints `ready` on stdout once
+/// every endpoint is bound and listening.
+pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
+    let tlog = match &config.tlog {
+        Some(path) => Some(tlog::Writer::new(BufWriter::new(File::create(path)?))),
+        None => None,
+    };
+    let mut stats_json = match &config.stats_json {
+        Some(path) => Some(BufWriter::new(File::create(path)?)),
+        None => None,
+    };
+    let state = Arc::new(Mutex::new(State {
+        router: Box::new(Router::new(config.table)),
+        endpoints: config.endpoints.clone(),
+        links: HashMap::new(),
+        by_slot: vec![None; MAX_LINKS],
+        tlog,
+        tlog_error: None,
+        refused: 0,
+    }));
+    let options = peers::Options {
+        peer_expiry: config.peer_expiry.unwrap_or(peers::DEFAULT_PEER_EXPIRY),
+    };
+    let mut handles = Vec::new();
+    for (i, endpoint) in config.endpoints.iter().enumerate() {
+        let shared = state.clone();
+        let sink: peers::Sink = Arc::new(move |event| {
+            lock(&shared).handle(event);
+            true
+        });
+        handles.push(peers::open(i, &endpoint.endpoint, options, sink)?);
+    }
+    {
+        let mut out = io::stdout().lock();
+        writeln!(
+            out,
+            "ready: routing {} endpoint(s), {} message(s) known",
+            config.endpoints.len(),
+            config.table.len()
+        )?;
+        out.flush()?;
+    }
+    let start = Instant::now();
+    let deadline = config.run_for.map(|d| start + d);
+    let mut next_json = start + Duration::from_secs(1);
+    let mut next_table = config.stats_every.map(|d| start + d);
+    loop {
         let now = Instant::now();
+        if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| now >= d) {
+            break;
+        }
+        let mut wake = now + Duration::from_millis(100);
+        for t in [Some(next_json), next_table, deadline]
+            .into_iter()
+            .flatten()
+        {
+            wake = wake.min(t);
+        }
+        std::thread::sleep(wake.saturating_duration_since(now));
+        let now = Instant::now();
+        let mut s = lock(&state);
+        if let Some(e) = s.tlog_error.take() {
+            return Err(io::Error::new(e.kind(), format!("writing the tlog: {e}")));
+        }
         if now >= next_json {
             if let Some(out) = &mut stats_json {
-                write_json(out, &router, &links, refused)?;
+                write_json(out, &s)?;
             }
             next_json += Duration::from_secs(1);
         }
         if let (Some(every), Some(at)) = (config.stats_every, next_table) {
             if now >= at {
-                print_table(&router, &links)?;
+                print_table(&s)?;
                 next_table = Some(at + every);
             }
         }
     }
+    // Stop the readers first (they notice within 200 ms), so nothing is routed after the last
+    // record is flushed.
+    drop(handles);
+    std::thread::sleep(Duration::from_millis(250));
+    let mut s = lock(&state);
     if let Some(out) = &mut stats_json {
-        write_json(out, &router, &links, refused)?;
+        write_json(out, &s)?;
         out.flush()?;
     }
-    if let Some(log) = &mut tlog {
+    if let Some(log) = &mut s.tlog {
         log.flush()?;
     }
-    drop(handles);
     Ok(())
 }
 
@@ -221,12 +258,8 @@ fn sorted_links(links: &HashMap<PeerId, Link>) -> Vec<&Link> {
     sorted
 }
 
-fn write_json(
-    out: &mut impl Write,
-    router: &Daemon,
-    links: &HashMap<PeerId, Link>,
-    refused: u64,
-) -> io::Result<()> {
+fn write_json(out: &mut impl Write, state: &State) -> io::Result<()> {
+    let (router, links, refused) = (&state.router, &state.links, state.refused);
     let links_json: Vec<_> = sorted_links(links)
         .into_iter()
         .filter_map(|l| {
@@ -257,7 +290,8 @@ fn write_json(
     out.flush()
 }
 
-fn print_table(router: &Daemon, links: &HashMap<PeerId, Link>) -> io::Result<()> {
+fn print_table(state: &State) -> io::Result<()> {
+    let (router, links) = (&state.router, &state.links);
     let mut out = io::stdout().lock();
     writeln!(
         out,

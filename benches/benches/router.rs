@@ -1,0 +1,424 @@
+//! MAVLink routers on loopback, side by side in one run: `ferrolink mavlink router`,
+//! mavlink-routerd and MAVProxy used as a forwarder, each with three UDP endpoints.
+//!
+//! ```sh
+//! cargo build --release -p ferrolink-cli
+//! cargo bench -p ferrolink-bench --bench router
+//! ```
+//!
+//! One peer sends PING broadcasts (its send time in `time_usec`) into endpoint A; two peers on
+//! endpoints B and C receive them. Per router:
+//! - at 10,000 msg/s offered for 5 s: what arrived at B and C, the router's CPU time per 10,000
+//!   messages (from /proc), and the latency from A to B at p50 and p99;
+//! - the most it forwards: 100,000 msg/s offered for 3 s, messages per second arriving at B;
+//! - idle: CPU use over 5 s with the three peers connected and nothing sent.
+//!
+//! Peers that are not installed are skipped with a note: mavlink-routerd is taken from
+//! `MAVLINK_ROUTERD` or the `PATH`, MAVProxy from `.venv/bin/mavproxy.py` or the `PATH`.
+
+use std::io::{BufRead, BufReader};
+use std::net::UdpSocket;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use ferrolink_runtime::mavlink::parser::Parser;
+use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
+
+static META: &[MessageMeta] = &[
+    MessageMeta {
+        id: 0,
+        name: "HEARTBEAT",
+        crc_extra: 50,
+        min_len: 9,
+        max_len: 9,
+        target_system: None,
+        target_component: None,
+    },
+    MessageMeta {
+        id: 4,
+        name: "PING",
+        crc_extra: 237,
+        min_len: 14,
+        max_len: 14,
+        target_system: Some(12),
+        target_component: Some(13),
+    },
+];
+
+fn epoch() -> Instant {
+    static EPOCH: OnceLock<Instant> = OnceLock::new();
+    *EPOCH.get_or_init(Instant::now)
+}
+
+fn now_us() -> u64 {
+    epoch().elapsed().as_micros() as u64
+}
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn ping(seq: u32) -> Vec<u8> {
+    let mut payload = [0u8; 14];
+    payload[..8].copy_from_slice(&now_us().to_le_bytes());
+    payload[8..12].copy_from_slice(&seq.to_le_bytes());
+    let mut out = [0u8; v2::MAX_FRAME_LEN];
+    let n =
+        v2::encode_raw(Header::new(seq as u8, 1, 1), 4, 237, &payload, &mut out).expect("encode");
+    out[..n].to_vec()
+}
+
+fn heartbeat(sysid: u8) -> Vec<u8> {
+    let mut out = [0u8; v2::MAX_FRAME_LEN];
+    let n = v2::encode_raw(
+        Header::new(0, sysid, 190),
+        0,
+        50,
+        &[0, 0, 0, 0, 6, 8, 0, 0, 3],
+        &mut out,
+    )
+    .expect("encode");
+    out[..n].to_vec()
+}
+
+/// A router under test, started on three UDP ports.
+struct Router {
+    name: &'static str,
+    child: Child,
+    _dir: PathBuf,
+}
+
+impl Drop for Router {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ferrolink-bench-{name}-{}", std::process::id()));
+    let _ = std::fs::create_dir_all(&dir);
+    dir
+}
+
+fn start_ferrolink(ports: [u16; 3]) -> Option<Router> {
+    let bin = workspace().join("target/release/ferrolink");
+    if !bin.exists() {
+        eprintln!(
+            "note: {} missing; run cargo build --release -p ferrolink-cli",
+            bin.display()
+        );
+        return None;
+    }
+    let mut child = Command::new(bin)
+        .args(["mavlink", "router"])
+        .args(ports.map(|p| format!("udpin://127.0.0.1:{p}")))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .ok()?;
+    let mut line = String::new();
+    BufReader::new(child.stdout.take()?)
+        .read_line(&mut line)
+        .ok()?;
+    line.contains("ready").then_some(Router {
+        name: "ferrolink",
+        child,
+        _dir: scratch("ferrolink"),
+    })
+}
+
+fn which(name: &str) -> Option<PathBuf> {
+    std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|p| p.join(name))
+            .find(|p| p.exists())
+    })
+}
+
+fn start_mavlink_routerd(ports: [u16; 3]) -> Option<Router> {
+    let Some(bin) = std::env::var_os("MAVLINK_ROUTERD")
+        .map(PathBuf::from)
+        .or_else(|| which("mavlink-routerd"))
+    else {
+        eprintln!("note: mavlink-routerd not found (set MAVLINK_ROUTERD); skipped");
+        return None;
+    };
+    let dir = scratch("mavlink-routerd");
+    let mut conf = String::from("[General]\nTcpServerPort = 0\nReportStats = false\n");
+    for (i, p) in ports.iter().enumerate() {
+        conf += &format!("[UdpEndpoint e{i}]\nMode = Server\nAddress = 127.0.0.1\nPort = {p}\n");
+    }
+    let path = dir.join("main.conf");
+    std::fs::write(&path, conf).ok()?;
+    let child = Command::new(bin)
+        .arg("-c")
+        .arg(&path)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .ok()?;
+    thread::sleep(Duration::from_millis(500));
+    Some(Router {
+        name: "mavlink-routerd",
+        child,
+        _dir: dir,
+    })
+}
+
+fn start_mavproxy(ports: [u16; 3]) -> Option<Router> {
+    let venv = workspace().join(".venv/bin/mavproxy.py");
+    let Some(bin) = venv
+        .exists()
+        .then_some(venv)
+        .or_else(|| which("mavproxy.py"))
+    else {
+        eprintln!("note: MAVProxy not found (pip install MAVProxy into .venv); skipped");
+        return None;
+    };
+    let dir = scratch("mavproxy");
+    let child = Command::new(bin)
+        .arg(format!("--master=udpin:127.0.0.1:{}", ports[0]))
+        .arg(format!("--out=udpin:127.0.0.1:{}", ports[1]))
+        .arg(format!("--out=udpin:127.0.0.1:{}", ports[2]))
+        .args([
+            "--daemon",
+            "--non-interactive",
+            "--nowait",
+            "--state-basedir",
+        ])
+        .arg(&dir)
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .ok()?;
+    thread::sleep(Duration::from_secs(4));
+    Some(Router {
+        name: "MAVProxy",
+        child,
+        _dir: dir,
+    })
+}
+
+/// User and system CPU time of a process, from /proc.
+fn cpu_time(pid: u32) -> Option<Duration> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
+    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    // The kernel's USER_HZ is 100 on every Linux this runs on.
+    Some(Duration::from_millis(ticks * 10))
+}
+
+/// A receiving peer: counts PINGs and records their latency.
+struct Sink {
+    socket: UdpSocket,
+    received: Arc<Mutex<Vec<u64>>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<thread::JoinHandle<()>>,
+}
+
+impl Sink {
+    fn new(port: u16, sysid: u8) -> Sink {
+        let socket = UdpSocket::bind("127.0.0.1:0").expect("bind");
+        socket.connect(("127.0.0.1", port)).expect("connect");
+        socket
+            .set_read_timeout(Some(Duration::from_millis(50)))
+            .expect("timeout");
+        let received = Arc::new(Mutex::new(Vec::with_capacity(1 << 20)));
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let (socket, received, stop) = (
+                socket.try_clone().expect("clone"),
+                received.clone(),
+                stop.clone(),
+            );
+            thread::spawn(move || {
+                let mut parser: Parser = Parser::new(META);
+                let mut buf = [0u8; 65536];
+                // A ground station says it is alive once a second; routers forget silent peers.
+                let mut next_heartbeat = Instant::now();
+                while !stop.load(Ordering::Relaxed) {
+                    if Instant::now() >= next_heartbeat {
+                        let _ = socket.send(&heartbeat(sysid));
+                        next_heartbeat += Duration::from_secs(1);
+                    }
+                    let Ok(n) = socket.recv(&mut buf) else {
+                        continue;
+                    };
+                    let t = now_us();
+                    parser.feed_all(&buf[..n], |frame| {
+                        if frame.msg_id() == 4 {
+                            // A MAVLink 2 payload comes without its trailing zeros.
+                            let p = ferrolink_runtime::wire::zero_extend::<14>(frame.payload());
+                            let sent: u64 = ferrolink_runtime::wire::get(&p, 0);
+                            if let Ok(mut r) = received.lock() {
+                                r.push(t.saturating_sub(sent));
+                            }
+                        }
+                    });
+                }
+            })
+        };
+        Sink {
+            socket,
+            received,
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    fn take(&self) -> Vec<u64> {
+        std::mem::take(&mut *self.received.lock().expect("lock"))
+    }
+}
+
+impl Drop for Sink {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        let _ = &self.socket;
+    }
+}
+
+/// Sends `rate` PINGs per second for `duration` to `port`; returns how many were sent.
+fn send(socket: &UdpSocket, rate: u64, duration: Duration) -> u64 {
+    let start = Instant::now();
+    let mut sent = 0u64;
+    while start.elapsed() < duration {
+        let due = (start.elapsed().as_secs_f64() * rate as f64) as u64;
+        while sent < due {
+            let _ = socket.send(&ping(sent as u32));
+            sent += 1;
+        }
+        thread::sleep(Duration::from_micros(200));
+    }
+    sent
+}
+
+fn percentile(sorted: &[u64], p: f64) -> u64 {
+    if sorted.is_empty() {
+        return 0;
+    }
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+struct Row {
+    name: &'static str,
+    delivered: f64,
+    cpu_per_10k_ms: f64,
+    p50: u64,
+    p99: u64,
+    max_rate: f64,
+    idle_pct: f64,
+}
+
+fn measure(router: &Router, ports: [u16; 3]) -> Row {
+    let pid = router.child.id();
+    let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    source.connect(("127.0.0.1", ports[0])).expect("connect");
+    let _ = source.send(&heartbeat(1));
+    let (b, c) = (Sink::new(ports[1], 201), Sink::new(ports[2], 202));
+    thread::sleep(Duration::from_millis(500));
+    let _ = (b.take(), c.take());
+
+    // Idle, with every peer known.
+    let idle = Duration::from_secs(5);
+    let before = cpu_time(pid).unwrap_or_default();
+    thread::sleep(idle);
+    let idle_pct =
+        100.0 * (cpu_time(pid).unwrap_or_default() - before).as_secs_f64() / idle.as_secs_f64();
+
+    // 10,000 msg/s.
+    let before = cpu_time(pid).unwrap_or_default();
+    let sent = send(&source, 10_000, Duration::from_secs(5));
+    thread::sleep(Duration::from_millis(500));
+    let cpu = cpu_time(pid).unwrap_or_default().saturating_sub(before);
+    let (mut lb, lc) = (b.take(), c.take());
+    lb.sort_unstable();
+    let delivered = (lb.len() + lc.len()) as f64 / (2 * sent) as f64;
+    let forwarded = (lb.len() + lc.len()).max(1) as f64;
+    let row = Row {
+        name: router.name,
+        delivered,
+        cpu_per_10k_ms: cpu.as_secs_f64() * 1e3 * 10_000.0 / forwarded,
+        p50: percentile(&lb, 0.5),
+        p99: percentile(&lb, 0.99),
+        max_rate: 0.0,
+        idle_pct,
+    };
+
+    // The most it forwards to one peer.
+    let window = Duration::from_secs(3);
+    send(&source, 100_000, window);
+    thread::sleep(Duration::from_millis(500));
+    let max_rate = b.take().len() as f64 / window.as_secs_f64();
+    let _ = c.take();
+    Row { max_rate, ..row }
+}
+
+fn machine() -> String {
+    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let model = cpuinfo
+        .lines()
+        .find_map(|l| l.strip_prefix("model name"))
+        .and_then(|l| l.split_once(':'))
+        .map_or("unknown CPU", |(_, m)| m.trim())
+        .to_owned();
+    let cores = thread::available_parallelism().map_or(0, |n| n.get());
+    format!("{model}, {cores} cores")
+}
+
+fn main() {
+    if std::env::args().any(|a| a == "--list") {
+        return;
+    }
+    println!("machine: {}", machine());
+    println!("three UDP endpoints on loopback; PING broadcasts from A to B and C");
+    let mut rows = Vec::new();
+    let starters: [(u16, fn([u16; 3]) -> Option<Router>); 3] = [
+        (34550, start_ferrolink),
+        (34560, start_mavlink_routerd),
+        (34570, start_mavproxy),
+    ];
+    for (base, start) in starters {
+        let ports = [base, base + 1, base + 2];
+        if let Some(router) = start(ports) {
+            rows.push(measure(&router, ports));
+        }
+    }
+    println!(
+        "\n| router | delivered at 10k msg/s | CPU per 10,000 msgs | latency p50 | p99 | most forwarded to one peer | idle CPU |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {:.2} % | {:.1} ms | {} µs | {} µs | {:.0} msg/s | {:.2} % |",
+            r.name,
+            100.0 * r.delivered,
+            r.cpu_per_10k_ms,
+            r.p50,
+            r.p99,
+            r.max_rate,
+            r.idle_pct
+        );
+    }
+    if let Some(ours) = rows.iter().find(|r| r.name == "ferrolink") {
+        for other in rows.iter().filter(|r| r.name != "ferrolink") {
+            println!(
+                "ferrolink / {}: CPU per message {:.2}x, most forwarded {:.2}x, p99 {:.2}x",
+                other.name,
+                ours.cpu_per_10k_ms / other.cpu_per_10k_ms,
+                ours.max_rate / other.max_rate.max(1.0),
+                ours.p99 as f64 / other.p99.max(1) as f64
+            );
+        }
+    }
+}
