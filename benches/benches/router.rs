@@ -383,7 +383,8 @@ fn main() {
     println!("machine: {}", machine());
     println!("three UDP endpoints on loopback; PING broadcasts from A to B and C");
     let mut rows = Vec::new();
-    let starters: [(u16, fn([u16; 3]) -> Option<Router>); 3] = [
+    type Start = fn([u16; 3]) -> Option<Router>;
+    let starters: [(u16, Start); 3] = [
         (34550, start_ferrolink),
         (34560, start_mavlink_routerd),
         (34570, start_mavproxy),
