@@ -2,7 +2,8 @@
 # Runs every test of the workspace.
 #
 # The reference encoder, pymavlink 2.4.50, is installed into .venv first; the conformance tests
-# generate their vectors with it. Without network the install fails and those tests are skipped
+# generate their vectors with it, and the MAVLink tool tests compare against it. mavsdk and
+# MAVProxy follow, for the router's checks with real ground-station software. Without network the install fails and those tests are skipped
 # (and say so); everything else still runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,6 +19,17 @@ fi
 if .venv/bin/python -c 'import pymavlink' 2>/dev/null; then
   export FERROLINK_PYTHON="$PWD/.venv/bin/python"
   export FERROLINK_REQUIRE_PYMAVLINK=1
+  # Ground-station software for the router's end-to-end checks. MAVProxy without its GUI
+  # dependencies (several hundred MB): the console, parameter and tlog parts need none of them.
+  if ! .venv/bin/python -c 'import mavsdk, MAVProxy' 2>/dev/null; then
+    echo "== installing mavsdk 4.1.0 and MAVProxy 1.8.75 into .venv"
+    .venv/bin/pip install --quiet --disable-pip-version-check mavsdk==4.1.0 &&
+      .venv/bin/pip install --quiet --disable-pip-version-check --no-deps MAVProxy==1.8.75 pyserial defusedxml ||
+      echo "warning: mavsdk or MAVProxy could not be installed; their router checks will be skipped"
+  fi
+  if .venv/bin/python -c 'import mavsdk, MAVProxy' 2>/dev/null; then
+    export FERROLINK_REQUIRE_GCS=1
+  fi
 fi
 
 # CI never writes snapshots.
