@@ -142,3 +142,28 @@ fn connections_talk_both_ways_over_udp() {
         .expect("a reply");
     assert_eq!(back.header().sysid, 255);
 }
+
+#[cfg(feature = "tokio")]
+#[tokio::test(flavor = "current_thread")]
+async fn async_connections_talk_both_ways() {
+    use ferrolink_io::mavlink::AsyncConnection;
+    let mut server = AsyncConnection::connect("udpin://127.0.0.1:0", META).unwrap();
+    let port = server.local_addr().unwrap().port();
+    let mut client = AsyncConnection::connect(&format!("udpout://127.0.0.1:{port}"), META).unwrap();
+    client.set_ids(7, 1);
+    client
+        .send_raw(0, 50, &[2, 0, 0, 0, 2, 3, 0x51, 4, 3])
+        .unwrap();
+    let limit = Duration::from_secs(2);
+    let got = tokio::time::timeout(limit, server.recv())
+        .await
+        .expect("in time")
+        .unwrap();
+    assert_eq!((got.msg_id(), got.header().sysid), (0, 7));
+    server.send_raw(0, 50, &[0; 9]).unwrap();
+    let back = tokio::time::timeout(limit, client.recv())
+        .await
+        .expect("in time")
+        .unwrap();
+    assert_eq!(back.header().sysid, 255);
+}

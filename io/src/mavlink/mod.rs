@@ -26,7 +26,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use ferrolink_runtime::mavlink::parser::{Feed, ParsedFrame, Parser};
 use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
 use ferrolink_runtime::mavlink::{
-    v1, v2, AnyFrame, Dialect, Header, Message, MessageMeta, UnknownMessageId, Version,
+    find_meta, v1, v2, AnyFrame, Dialect, Header, Message, MessageMeta, UnknownMessageId, Version,
 };
 
 use crate::peers::{self, Endpoint, Event, PeerId, Sender};
@@ -105,23 +105,83 @@ struct Peer {
 }
 
 /// An endpoint event, moved to the connection's thread.
-enum Owned {
+#[derive(Debug)]
+pub enum Owned {
+    /// A peer appeared.
     Up(PeerId, Sender),
+    /// Bytes from a peer.
     Rx(PeerId, Vec<u8>),
+    /// A peer went away.
     Down(PeerId),
 }
 
-/// A MAVLink connection on one endpoint URI (see [`crate::peers`] for the forms), blocking.
+impl From<Event<'_>> for Owned {
+    fn from(event: Event<'_>) -> Self {
+        match event {
+            Event::Up { peer, sender, .. } => Owned::Up(peer, sender),
+            Event::Rx { peer, bytes, .. } => Owned::Rx(peer, bytes.to_vec()),
+            Event::Down { peer, .. } => Owned::Down(peer),
+        }
+    }
+}
+
+/// How a connection waits for its endpoint's events: [`Blocking`] or, with the `tokio`
+/// feature, [`Async`].
+pub trait Events: Sized {
+    /// Starts receiving, and gives the sink the endpoint reports to.
+    fn new() -> (Self, peers::Sink);
+    /// An event that is already there.
+    fn try_next(&mut self) -> Option<Owned>;
+}
+
+/// Events for the blocking API.
+#[derive(Debug)]
+pub struct Blocking(mpsc::Receiver<Owned>);
+
+impl Events for Blocking {
+    fn new() -> (Self, peers::Sink) {
+        let (tx, rx) = mpsc::channel();
+        (Blocking(rx), Arc::new(move |e| tx.send(e.into()).is_ok()))
+    }
+
+    fn try_next(&mut self) -> Option<Owned> {
+        self.0.try_recv().ok()
+    }
+}
+
+/// Events for the async API (feature `tokio`; it needs no particular runtime).
+#[cfg(feature = "tokio")]
+#[derive(Debug)]
+pub struct Async(tokio::sync::mpsc::UnboundedReceiver<Owned>);
+
+#[cfg(feature = "tokio")]
+impl Events for Async {
+    fn new() -> (Self, peers::Sink) {
+        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
+        (Async(rx), Arc::new(move |e| tx.send(e.into()).is_ok()))
+    }
+
+    fn try_next(&mut self) -> Option<Owned> {
+        self.0.try_recv().ok()
+    }
+}
+
+/// The async connection: [`Connection`] with `recv` and `recv_message` as `async fn`s.
+#[cfg(feature = "tokio")]
+pub type AsyncConnection = Connection<Async>;
+
+/// A MAVLink connection on one endpoint URI (see [`crate::peers`] for the forms): blocking, or
+/// async as [`AsyncConnection`] (feature `tokio`).
 ///
 /// Frames are received from every peer of the endpoint (each with its own stream parser, so
 /// interleaved peers never corrupt each other) and sent to every peer: on `udpin`, that is every
 /// address heard from in the last 10 s. Sends use the connection's own system and component ids
 /// and sequence numbers counting up, as MAVLink 2 (or 1) frames, signed if a key is set.
-pub struct Connection {
+pub struct Connection<E = Blocking> {
     uri: Endpoint,
     table: &'static [MessageMeta],
-    _handle: peers::Handle,
-    events: mpsc::Receiver<Owned>,
+    handle: peers::Handle,
+    events: E,
     peers: HashMap<PeerId, Peer>,
     queue: VecDeque<Frame>,
     sysid: u8,
@@ -132,7 +192,7 @@ pub struct Connection {
     pass_unknown: bool,
 }
 
-impl std::fmt::Debug for Connection {
+impl<E> std::fmt::Debug for Connection<E> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Connection")
             .field("uri", &self.uri.to_string())
@@ -143,28 +203,17 @@ impl std::fmt::Debug for Connection {
     }
 }
 
-impl Connection {
-    /// Opens `uri`, checking received frames against `table` (a dialect's `META`). Sockets are
-    /// bound before this returns; `tcpout` and `serial` connect in the background and keep
-    /// reconnecting.
-    pub fn open(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
+impl<E: Events> Connection<E> {
+    fn start(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
         let endpoint: Endpoint = uri
             .parse()
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-        let (tx, events) = mpsc::channel();
-        let sink: peers::Sink = Arc::new(move |event| {
-            let owned = match event {
-                Event::Up { peer, sender, .. } => Owned::Up(peer, sender),
-                Event::Rx { peer, bytes, .. } => Owned::Rx(peer, bytes.to_vec()),
-                Event::Down { peer, .. } => Owned::Down(peer),
-            };
-            tx.send(owned).is_ok()
-        });
+        let (events, sink) = E::new();
         let handle = peers::open(0, &endpoint, peers::Options::default(), sink)?;
         Ok(Self {
             uri: endpoint,
             table,
-            _handle: handle,
+            handle,
             events,
             peers: HashMap::new(),
             queue: VecDeque::new(),
@@ -179,7 +228,7 @@ impl Connection {
 
     /// The bound local address, for `udpin`, `udpout` and `tcpin` URIs.
     pub fn local_addr(&self) -> Option<std::net::SocketAddr> {
-        self._handle.local_addr()
+        self.handle.local_addr()
     }
 
     /// The system and component ids frames are sent from (255/190, a ground station, by
@@ -211,46 +260,18 @@ impl Connection {
         self.peers.len()
     }
 
-    /// Waits up to `timeout` for a frame. `Ok(None)` when none came in time.
-    pub fn recv(&mut self, timeout: Duration) -> io::Result<Option<Frame>> {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some(frame) = self.queue.pop_front() {
-                return Ok(Some(frame));
-            }
-            let left = deadline.saturating_duration_since(Instant::now());
-            match self.events.recv_timeout(left) {
-                Ok(event) => self.handle(event),
-                Err(mpsc::RecvTimeoutError::Timeout) => return Ok(None),
-                Err(mpsc::RecvTimeoutError::Disconnected) => {
-                    return Err(io::Error::new(
-                        io::ErrorKind::BrokenPipe,
-                        format!("{}: the endpoint stopped", self.uri),
-                    ))
-                }
-            }
-        }
-    }
-
-    /// Waits up to `timeout` for a message of dialect `D`, skipping frames `D` lacks.
-    pub fn recv_message<D: Dialect>(
-        &mut self,
-        timeout: Duration,
-    ) -> io::Result<Option<(Header, D)>> {
-        let deadline = Instant::now() + timeout;
-        while let Some(frame) = self.recv(deadline.saturating_duration_since(Instant::now()))? {
-            if let Ok(message) = frame.decode::<D>() {
-                return Ok(Some((frame.header(), message)));
-            }
-        }
-        Ok(None)
-    }
-
     /// Takes in what arrived without waiting (peers appearing and going too).
     pub fn poll(&mut self) {
-        while let Ok(event) = self.events.try_recv() {
+        while let Some(event) = self.events.try_next() {
             self.handle(event);
         }
+    }
+
+    fn stopped(&self) -> io::Error {
+        io::Error::new(
+            io::ErrorKind::BrokenPipe,
+            format!("{}: the endpoint stopped", self.uri),
+        )
     }
 
     fn handle(&mut self, event: Owned) {
@@ -279,11 +300,7 @@ impl Connection {
     pub fn send<M: Message>(&mut self, message: &M) -> io::Result<()> {
         let mut payload = [0u8; ferrolink_runtime::mavlink::MAX_PAYLOAD_LEN];
         let len = message.encode(&mut payload);
-        self.send_raw(
-            M::ID,
-            M::CRC_EXTRA,
-            &payload[..len.min(M::MIN_LEN.max(len))],
-        )
+        self.send_raw(M::ID, M::CRC_EXTRA, &payload[..len])
     }
 
     /// Sends any message of dialect `D`, as [`Connection::send`] does.
@@ -301,11 +318,8 @@ impl Connection {
         let mut out = [0u8; v2::MAX_FRAME_LEN];
         let encoded = match (self.version, &mut self.signer) {
             (Version::V1, _) => {
-                let min = self
-                    .table
-                    .iter()
-                    .find(|m| m.id == id)
-                    .map_or(payload.len(), |m| usize::from(m.min_len));
+                let min =
+                    find_meta(self.table, id).map_or(payload.len(), |m| usize::from(m.min_len));
                 v1::encode_raw(
                     header,
                     id,
@@ -343,6 +357,76 @@ impl Connection {
         match (sent, last_error) {
             (0, Some(e)) => Err(e),
             _ => Ok(()),
+        }
+    }
+}
+
+impl Connection<Blocking> {
+    /// Opens `uri`, checking received frames against `table` (a dialect's `META`). Sockets are
+    /// bound before this returns; `tcpout` and `serial` connect in the background and keep
+    /// reconnecting.
+    pub fn open(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
+        Self::start(uri, table)
+    }
+
+    /// Waits up to `timeout` for a frame. `Ok(None)` when none came in time.
+    pub fn recv(&mut self, timeout: Duration) -> io::Result<Option<Frame>> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(frame) = self.queue.pop_front() {
+                return Ok(Some(frame));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.events.0.recv_timeout(left) {
+                Ok(event) => self.handle(event),
+                Err(mpsc::RecvTimeoutError::Timeout) => return Ok(None),
+                Err(mpsc::RecvTimeoutError::Disconnected) => return Err(self.stopped()),
+            }
+        }
+    }
+
+    /// Waits up to `timeout` for a message of dialect `D`, skipping frames `D` lacks.
+    pub fn recv_message<D: Dialect>(
+        &mut self,
+        timeout: Duration,
+    ) -> io::Result<Option<(Header, D)>> {
+        let deadline = Instant::now() + timeout;
+        while let Some(frame) = self.recv(deadline.saturating_duration_since(Instant::now()))? {
+            if let Ok(message) = frame.decode::<D>() {
+                return Ok(Some((frame.header(), message)));
+            }
+        }
+        Ok(None)
+    }
+}
+
+#[cfg(feature = "tokio")]
+impl Connection<Async> {
+    /// Opens `uri` for async use, as [`Connection::open`] does. Needs no particular runtime.
+    pub fn connect(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
+        Self::start(uri, table)
+    }
+
+    /// Waits for a frame (wrap it in a timeout as you need).
+    pub async fn recv(&mut self) -> io::Result<Frame> {
+        loop {
+            if let Some(frame) = self.queue.pop_front() {
+                return Ok(frame);
+            }
+            match self.events.0.recv().await {
+                Some(event) => self.handle(event),
+                None => return Err(self.stopped()),
+            }
+        }
+    }
+
+    /// Waits for a message of dialect `D`, skipping frames `D` lacks.
+    pub async fn recv_message<D: Dialect>(&mut self) -> io::Result<(Header, D)> {
+        loop {
+            let frame = self.recv().await?;
+            if let Ok(message) = frame.decode::<D>() {
+                return Ok((frame.header(), message));
+            }
         }
     }
 }
