@@ -12,6 +12,7 @@
 //! | `tcpin://HOST:PORT` | each client | any number of clients |
 //! | `tcpout://HOST:PORT` | the server | reconnects with a backoff from 50 ms doubling to 1 s |
 //! | `serial://PATH[:BAUD]` | the device | reopened every second after it fails or is unplugged |
+//! | `pty://NAME` | the program attached to the pseudo-terminal linked at `NAME` | created at open, removed when the endpoint is dropped |
 //!
 //! The spellings of pymavlink and rust-mavlink are accepted as well, so a user can paste what
 //! they know: `udpin:0.0.0.0:14550`, `udpout:HOST:PORT`, `udp:HOST:PORT` (= udpin),
@@ -25,8 +26,10 @@
 
 use std::collections::HashMap;
 use std::fmt;
-use std::io::{self, Read, Write};
-use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, ToSocketAddrs, UdpSocket};
+use std::io;
+use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, UdpSocket};
+
+use crate::{is_timeout, LinkReader, LinkWriter};
 use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
@@ -57,6 +60,9 @@ pub enum Endpoint {
     TcpOut(String, u16),
     /// `serial://PATH[:BAUD]`: a serial device, 8N1, that is reopened when it fails.
     Serial(String, u32),
+    /// `pty://NAME`: a pseudo-terminal whose other end is linked at `NAME`, for programs that
+    /// expect a serial device.
+    Pty(String),
 }
 
 /// Why an endpoint URI did not parse; the text names the URI and lists the accepted forms.
@@ -68,7 +74,7 @@ impl fmt::Display for UriError {
         write!(
             f,
             "{}\n  hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, \
-             tcpout://HOST:PORT, serial://PATH[:BAUD]; pymavlink spellings (udpin:HOST:PORT, \
+             tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME; pymavlink spellings (udpin:HOST:PORT, \
              tcp:HOST:PORT, serial:PATH:BAUD) work too",
             self.0
         )
@@ -127,6 +133,7 @@ impl FromStr for Endpoint {
                 let (h, p) = host_port(rest)?;
                 Endpoint::TcpOut(h, p)
             }
+            "pty" if !rest.is_empty() => Endpoint::Pty(rest.to_owned()),
             "serial" => {
                 // `PATH:BAUD` or `PATH,BAUD`; any other ':' belongs to the path.
                 let split = rest
@@ -169,6 +176,7 @@ impl fmt::Display for Endpoint {
             Endpoint::TcpIn(h, p) => write!(f, "tcpin://{}:{p}", host(h)),
             Endpoint::TcpOut(h, p) => write!(f, "tcpout://{}:{p}", host(h)),
             Endpoint::Serial(path, baud) => write!(f, "serial://{path}:{baud}"),
+            Endpoint::Pty(name) => write!(f, "pty://{name}"),
         }
     }
 }
@@ -222,17 +230,24 @@ pub type Sink = Arc<dyn Fn(Event<'_>) -> bool + Send + Sync>;
 #[derive(Debug, Clone)]
 pub struct Sender(SenderKind);
 
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 enum SenderKind {
     Udp(Arc<UdpSocket>, SocketAddr),
-    Stream(Arc<Mutex<Box<dyn WriteStream>>>),
+    Stream(Arc<Mutex<Box<dyn LinkWriter>>>),
 }
 
-trait WriteStream: Write + Send + fmt::Debug {}
-impl<T: Write + Send + fmt::Debug> WriteStream for T {}
+impl fmt::Debug for SenderKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SenderKind::Udp(socket, to) => f.debug_tuple("Udp").field(socket).field(to).finish(),
+            SenderKind::Stream(_) => f.write_str("Stream"),
+        }
+    }
+}
 
 impl Sender {
-    /// Sends `bytes` as one datagram, or writes them to the stream (giving up after 100 ms).
+    /// Sends `bytes` as one datagram, or writes them to the stream (a TCP peer that does not
+    /// read for 100 ms loses the write, so one stalled client cannot hold up a router).
     pub fn send(&self, bytes: &[u8]) -> io::Result<()> {
         match &self.0 {
             SenderKind::Udp(socket, to) => socket.send_to(bytes, to).map(|_| ()),
@@ -279,13 +294,12 @@ impl Drop for Handle {
     }
 }
 
+/// The first address of `host` (IPv4 preferred, see [`crate::resolve`]).
 fn resolve(host: &str, port: u16) -> io::Result<SocketAddr> {
-    let mut addrs: Vec<SocketAddr> = (host, port).to_socket_addrs()?.collect();
-    addrs.sort_by_key(SocketAddr::is_ipv6);
-    addrs
+    crate::resolve(host, port)?
         .into_iter()
         .next()
-        .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, format!("{host:?} has no address")))
+        .ok_or_else(|| io::Error::from(io::ErrorKind::NotFound))
 }
 
 /// Opens endpoint number `index` and reports its peers to `events`. Sockets are bound (and a
@@ -367,6 +381,17 @@ pub fn open(
             })?;
             None
         }
+        Endpoint::Pty(link) => {
+            // Created now, so that the link exists when `open` returns.
+            let (reader, writer) = crate::serial::open_pty(link).map_err(context)?;
+            spawn(&uri, {
+                let stop = stop.clone();
+                move || {
+                    read_peer(index, &name, reader, writer, &stop, &events);
+                }
+            })?;
+            None
+        }
     };
     Ok(Handle { stop, local })
 }
@@ -376,13 +401,6 @@ fn spawn(name: &str, f: impl FnOnce() + Send + 'static) -> io::Result<()> {
         .name(name.chars().take(15).collect())
         .spawn(f)
         .map(|_| ())
-}
-
-fn is_timeout(e: &io::Error) -> bool {
-    matches!(
-        e.kind(),
-        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
-    )
 }
 
 /// ICMP "port unreachable" answers to earlier datagrams: no reason to give up on a socket.
@@ -509,19 +527,11 @@ fn stream_peer(
     stop: &AtomicBool,
     events: &Sink,
 ) -> Option<String> {
-    let setup = stream
-        .set_nonblocking(false)
-        .and_then(|()| stream.set_nodelay(true))
-        .and_then(|()| stream.set_write_timeout(Some(WRITE_TIMEOUT)))
-        .and_then(|()| stream.set_read_timeout(Some(POLL)))
-        .and_then(|()| stream.try_clone());
-    let writer = match setup {
-        Ok(writer) => writer,
-        Err(e) => return Some(e.to_string()),
+    let shutdown = stream.try_clone().ok();
+    let why = match crate::tcp::stream_halves(stream, WRITE_TIMEOUT) {
+        Ok((reader, writer)) => read_peer(index, name, reader, writer, stop, events),
+        Err(e) => Some(e.to_string()),
     };
-    let shutdown = writer.try_clone().ok();
-    let sender = Sender(SenderKind::Stream(Arc::new(Mutex::new(Box::new(writer)))));
-    let why = read_peer(index, name, stream, sender, stop, events);
     if let Some(s) = shutdown {
         let _ = s.shutdown(Shutdown::Both);
     }
@@ -533,8 +543,8 @@ fn stream_peer(
 fn read_peer(
     index: usize,
     name: &str,
-    mut reader: impl Read,
-    sender: Sender,
+    mut reader: Box<dyn LinkReader>,
+    writer: Box<dyn LinkWriter>,
     stop: &AtomicBool,
     events: &Sink,
 ) -> Option<String> {
@@ -543,7 +553,7 @@ fn read_peer(
         endpoint: index,
         peer,
         name: name.to_owned(),
-        sender,
+        sender: Sender(SenderKind::Stream(Arc::new(Mutex::new(writer)))),
     };
     events(up).then_some(())?;
     let mut buf = vec![0u8; 16 * 1024];
@@ -551,8 +561,8 @@ fn read_peer(
         if stop.load(Ordering::Relaxed) {
             return None;
         }
-        match reader.read(&mut buf) {
-            Ok(0) => break "closed".to_owned(),
+        match reader.read(&mut buf, POLL) {
+            Ok(0) => {}
             Ok(n) => {
                 let rx = Event::Rx {
                     peer,
@@ -561,7 +571,6 @@ fn read_peer(
                 };
                 events(rx).then_some(())?;
             }
-            Err(e) if is_timeout(&e) => {}
             Err(e) => break e.to_string(),
         }
     };
@@ -597,18 +606,10 @@ fn tcp_out(index: usize, name: &str, host: &str, port: u16, stop: &AtomicBool, e
 fn serial(index: usize, name: &str, path: &str, baud: u32, stop: &AtomicBool, events: &Sink) {
     let mut reported = false;
     while !stop.load(Ordering::Relaxed) {
-        let opened = serialport::new(path, baud)
-            .timeout(POLL)
-            .open()
-            .and_then(|port| Ok((port.try_clone()?, port)));
-        match opened {
-            Ok((reader, mut writer)) => {
+        match crate::serial::open_serial(path, baud) {
+            Ok((reader, writer)) => {
                 reported = false;
-                let _ = writer.set_timeout(WRITE_TIMEOUT);
-                let sender = Sender(SenderKind::Stream(Arc::new(Mutex::new(Box::new(
-                    SerialWriter(writer),
-                )))));
-                if read_peer(index, name, SerialReader(reader), sender, stop, events).is_none() {
+                if read_peer(index, name, reader, writer, stop, events).is_none() {
                     return;
                 }
             }
@@ -620,38 +621,5 @@ fn serial(index: usize, name: &str, path: &str, baud: u32, stop: &AtomicBool, ev
             }
         }
         thread::sleep(Duration::from_secs(1));
-    }
-}
-
-/// A serial port's reading half; a read of 0 bytes means the device hung up (unplugged).
-struct SerialReader(Box<dyn serialport::SerialPort>);
-
-impl Read for SerialReader {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        match self.0.read(buf) {
-            Ok(0) => Err(io::Error::new(
-                io::ErrorKind::UnexpectedEof,
-                "the serial device hung up",
-            )),
-            other => other,
-        }
-    }
-}
-
-struct SerialWriter(Box<dyn serialport::SerialPort>);
-
-impl fmt::Debug for SerialWriter {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_tuple("SerialWriter").field(&self.0.name()).finish()
-    }
-}
-
-impl Write for SerialWriter {
-    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.0.write(buf)
-    }
-
-    fn flush(&mut self) -> io::Result<()> {
-        self.0.flush()
     }
 }

@@ -21,10 +21,28 @@ const MAX_WAIT: Duration = Duration::from_secs(365 * 24 * 3600);
 
 /// Sets up a connected stream for small, latency-sensitive frames.
 fn configure(stream: &TcpStream) -> io::Result<()> {
+    configure_with(stream, WRITE_TIMEOUT)
+}
+
+/// Sets up a connected stream, writes giving up after `write_timeout`.
+fn configure_with(stream: &TcpStream, write_timeout: std::time::Duration) -> io::Result<()> {
     // Accepted sockets inherit the listener's non-blocking flag on some systems.
     stream.set_nonblocking(false)?;
     stream.set_nodelay(true)?;
-    stream.set_write_timeout(Some(WRITE_TIMEOUT))
+    stream.set_write_timeout(Some(write_timeout))
+}
+
+/// The halves of one connected stream (a client, or one client of a server), writes giving up
+/// after `write_timeout`. Reading reports the other side closing as `UnexpectedEof`.
+pub(crate) fn stream_halves(
+    stream: TcpStream,
+    write_timeout: std::time::Duration,
+) -> io::Result<Halves> {
+    configure_with(&stream, write_timeout)?;
+    let reader = TcpReader {
+        stream: stream.try_clone()?,
+    };
+    Ok((Box::new(reader), Box::new(TcpWriter { stream })))
 }
 
 /// Errors after which a connection is of no further use.
@@ -44,13 +62,7 @@ pub(crate) fn connect(host: &str, port: u16) -> io::Result<Halves> {
     let mut last_error = None;
     for addr in resolve(host, port)? {
         match TcpStream::connect_timeout(&addr, CONNECT_TIMEOUT) {
-            Ok(stream) => {
-                configure(&stream)?;
-                let reader = TcpReader {
-                    stream: stream.try_clone()?,
-                };
-                return Ok((Box::new(reader), Box::new(TcpWriter { stream })));
-            }
+            Ok(stream) => return stream_halves(stream, WRITE_TIMEOUT),
             Err(e) => last_error = Some(e),
         }
     }
@@ -72,7 +84,7 @@ impl LinkReader for TcpReader {
         match self.stream.read(buf) {
             Ok(0) => Err(io::Error::new(
                 io::ErrorKind::UnexpectedEof,
-                "the TCP server closed the connection",
+                "the other side closed the connection",
             )),
             Ok(n) => Ok(n),
             Err(e) if is_timeout(&e) => Ok(0),

@@ -167,3 +167,65 @@ async fn async_connections_talk_both_ways() {
         .unwrap();
     assert_eq!(back.header().sysid, 255);
 }
+
+/// A serial link on a pseudo-terminal: frames both ways; then the device goes away (the pty is
+/// closed, as when a USB adapter is unplugged) and comes back, and the serial side resumes.
+#[cfg(unix)]
+#[test]
+fn serial_survives_unplugging() {
+    let dir = tempfile::tempdir().unwrap();
+    let link = dir.path().join("ttyFAKE");
+    let pty_uri = format!("pty://{}", link.display());
+    let mut device = Connection::open(&pty_uri, META).unwrap();
+    let mut serial =
+        Connection::open(&format!("serial://{}:115200", link.display()), META).unwrap();
+    serial.set_ids(1, 1);
+    let heartbeat = [0, 0, 0, 0, 2, 3, 0x51, 4, 3];
+    let wait_for_peer = |c: &mut Connection| {
+        for _ in 0..50 {
+            c.poll();
+            if c.peers() > 0 {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        panic!("no peer");
+    };
+    wait_for_peer(&mut serial);
+    serial.send_raw(0, 50, &heartbeat).unwrap();
+    let got = device
+        .recv(Duration::from_secs(2))
+        .unwrap()
+        .expect("a frame");
+    assert_eq!(got.header().sysid, 1);
+    wait_for_peer(&mut device);
+    device.send_raw(0, 50, &heartbeat).unwrap();
+    assert!(serial.recv(Duration::from_secs(2)).unwrap().is_some());
+
+    // Unplug: the serial side sees the device go and has no peer.
+    drop(device);
+    for _ in 0..50 {
+        serial.poll();
+        if serial.peers() == 0 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert_eq!(serial.peers(), 0, "the unplugged device is reported down");
+    // Plug it back in: within about a second the serial side has reopened it.
+    let mut device = Connection::open(&pty_uri, META).unwrap();
+    std::thread::sleep(Duration::from_millis(100));
+    for _ in 0..60 {
+        serial.poll();
+        if serial.peers() > 0 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    serial.send_raw(0, 50, &heartbeat).unwrap();
+    let got = device
+        .recv(Duration::from_secs(2))
+        .unwrap()
+        .expect("a frame after replugging");
+    assert_eq!(got.header().seq, 1);
+}
