@@ -132,3 +132,40 @@ fn a_sync_set_from_another_master_does_not_start_a_node_without_a_ring() {
     );
     assert_eq!(node.counters().packets, 5);
 }
+
+/// Found by `cargo fuzz run tosnet_node`: a broken frame was forwarded with a good CRC.
+#[test]
+fn fuzz_regression_broken_frame_stays_broken() {
+    let script = hex::decode("ff88032ffe09880300770301000001a6fe0000").expect("hex");
+    scripts::check_node(&script);
+}
+
+/// A frame an upstream node marked broken (its CRC off by exactly the low nibble) stays broken
+/// through every node downstream: each seals the CRC of what it forwards, inverted, rather than
+/// flipping the received one back.
+#[test]
+fn broken_frames_stay_broken_downstream() {
+    use ferrolink_runtime::tosnet::frame::{crc_ok, seal_broken, MAX_FRAME_LEN};
+    let mut frame = [0u8; 8];
+    let len = Repr::Idle { sender: 3 }.emit(&mut frame).expect("fits");
+    let mut frame = frame[..len].to_vec();
+    assert!(crc_ok(&frame));
+    seal_broken(&mut frame);
+    assert!(!crc_ok(&frame));
+    let mut out = vec![0u8; MAX_FRAME_LEN];
+    for id in 1..=4 {
+        let mut node = Node::new(Config::new(id));
+        let n = node.receive(&frame, 0, &mut out).expect("forwarded");
+        assert_eq!(
+            out[..n - 1],
+            frame[..len - 1],
+            "the body is forwarded as it came"
+        );
+        assert!(
+            !crc_ok(&out[..n]),
+            "node {id} forwarded a broken frame as good"
+        );
+        assert_eq!(node.counters().errors, 1);
+        frame = out[..n].to_vec();
+    }
+}
