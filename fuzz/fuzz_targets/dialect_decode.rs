@@ -15,7 +15,9 @@ fuzz_target!(|data: &[u8]| {
     let n = msg.encode(&mut once);
     assert_eq!(n, usize::from(meta.max_len));
     let mut twice: PayloadBuf = [0; 255];
-    Message::decode(meta.id, &once[..n]).expect("same id").encode(&mut twice);
+    Message::decode(meta.id, &once[..n])
+        .expect("same id")
+        .encode(&mut twice);
     assert_eq!(once[..n], twice[..n]);
     // Unknown ids are an error, not a panic.
     let _ = Message::decode(0x00FF_FFFF, payload);

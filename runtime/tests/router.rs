@@ -9,52 +9,18 @@ use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey,
 use ferrolink_runtime::mavlink::{v1, v2, Header, MessageMeta};
 use proptest::prelude::*;
 
+/// The routing-relevant part of common.xml for the messages used here (CRC_EXTRA and target
+/// offsets as mavgen computes them) is `scripts::META`.
+#[path = "scripts/router.rs"]
+mod scripts;
+
 const HEARTBEAT: u32 = 0;
 const PING: u32 = 4;
 const PARAM_REQUEST_LIST: u32 = 21;
 const COMMAND_LONG: u32 = 76;
 const UNKNOWN: u32 = 4242;
 
-/// The routing-relevant part of common.xml for these messages (CRC_EXTRA and target offsets as
-/// mavgen computes them).
-static META: &[MessageMeta] = &[
-    MessageMeta {
-        id: HEARTBEAT,
-        name: "HEARTBEAT",
-        crc_extra: 50,
-        min_len: 9,
-        max_len: 9,
-        target_system: None,
-        target_component: None,
-    },
-    MessageMeta {
-        id: PING,
-        name: "PING",
-        crc_extra: 237,
-        min_len: 14,
-        max_len: 14,
-        target_system: Some(12),
-        target_component: Some(13),
-    },
-    MessageMeta {
-        id: PARAM_REQUEST_LIST,
-        name: "PARAM_REQUEST_LIST",
-        crc_extra: 159,
-        min_len: 2,
-        max_len: 2,
-        target_system: Some(0),
-        target_component: Some(1),
-    },
-    MessageMeta {
-        id: COMMAND_LONG,
-        name: "COMMAND_LONG",
-        crc_extra: 152,
-        min_len: 33,
-        max_len: 33,
-        target_system: Some(30),
-        target_component: Some(31),
-    },
-];
+use scripts::META;
 
 fn meta(id: u32) -> &'static MessageMeta {
     META.iter().find(|m| m.id == id).expect("test message")
@@ -518,5 +484,24 @@ proptest! {
             d.unsigned + d.bad_signature + d.duplicate + d.filtered_in
         }).sum();
         prop_assert_eq!(sources + dropped_in, delivered);
+    }
+}
+
+proptest! {
+    /// Arbitrary scripts: the invariants the `mavlink_router` fuzz target checks.
+    #[test]
+    fn scripts_keep_the_invariants(script in prop::collection::vec(any::<u8>(), 0..1500)) {
+        scripts::check_router(&script);
+    }
+
+    /// Scripts made mostly of well-formed frames, so that routes are learnt and used.
+    #[test]
+    fn frame_scripts_keep_the_invariants(ops in prop::collection::vec((0u8..64, any::<[u8; 8]>()), 0..200)) {
+        let mut script = Vec::new();
+        for (op, args) in ops {
+            script.push(op << 2 | 1);
+            script.extend_from_slice(&args);
+        }
+        scripts::check_router(&script);
     }
 }
