@@ -25,29 +25,12 @@ use std::sync::{Arc, Mutex, OnceLock};
 use std::thread;
 use std::time::{Duration, Instant};
 
+use ferrolink_generated::mavlink::minimal::Message;
 use ferrolink_runtime::mavlink::parser::Parser;
-use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
+use ferrolink_runtime::mavlink::{v2, Dialect, Header, MessageMeta};
 
-static META: &[MessageMeta] = &[
-    MessageMeta {
-        id: 0,
-        name: "HEARTBEAT",
-        crc_extra: 50,
-        min_len: 9,
-        max_len: 9,
-        target_system: None,
-        target_component: None,
-    },
-    MessageMeta {
-        id: 4,
-        name: "PING",
-        crc_extra: 237,
-        min_len: 14,
-        max_len: 14,
-        target_system: Some(12),
-        target_component: Some(13),
-    },
-];
+/// HEARTBEAT and PING (and the rest of our minimal dialect).
+static META: &[MessageMeta] = <Message as Dialect>::META;
 
 fn epoch() -> Instant {
     static EPOCH: OnceLock<Instant> = OnceLock::new();

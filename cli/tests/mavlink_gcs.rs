@@ -10,31 +10,11 @@
 
 mod common;
 
-use std::process::Command;
-
-use common::{ferrolink, pymavlink, workspace};
-
 #[test]
 fn ground_stations_through_the_router() {
-    let Some((python, dialects)) = pymavlink() else {
-        common::skip("pymavlink is missing");
+    let Some(stdout) = common::run_router_checks("router_gcs.py") else {
         return;
     };
-    let workdir = tempfile::tempdir().expect("a scratch directory");
-    let out = Command::new(python)
-        .arg(workspace().join("tests/mavlink/router_gcs.py"))
-        .arg("--router")
-        .arg(ferrolink())
-        .arg("--dialect-dir")
-        .arg(&dialects)
-        .arg("--workdir")
-        .arg(workdir.path())
-        .output()
-        .expect("run the ground-station checks");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "some checks failed:\n{stdout}");
-    assert!(stdout.contains(" 0 failed"), "{stdout}");
     if std::env::var_os("FERROLINK_REQUIRE_GCS").is_some() {
         assert!(!stdout.contains("skip "), "a check was skipped:\n{stdout}");
     }

@@ -10,29 +10,7 @@
 
 mod common;
 
-use std::process::Command;
-
-use common::{ferrolink, pymavlink, workspace};
-
 #[test]
 fn routing_rules_against_pymavlink_nodes() {
-    let Some((python, dialects)) = pymavlink() else {
-        common::skip("pymavlink is missing");
-        return;
-    };
-    let workdir = tempfile::tempdir().expect("a scratch directory");
-    let out = Command::new(python)
-        .arg(workspace().join("tests/mavlink/router_rules.py"))
-        .arg("--router")
-        .arg(ferrolink())
-        .arg("--dialect-dir")
-        .arg(&dialects)
-        .arg("--workdir")
-        .arg(workdir.path())
-        .output()
-        .expect("run the pymavlink checks");
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    assert!(out.status.success(), "some checks failed:\n{stdout}");
-    assert!(stdout.contains(" 0 failed"), "{stdout}");
+    common::run_router_checks("router_rules.py");
 }

@@ -42,3 +42,29 @@ pub fn skip(why: &str) {
     );
     eprintln!("skipped: {why}");
 }
+
+/// Runs a checks script of `tests/mavlink/` against the router (`--router`, `--dialect-dir`,
+/// `--workdir`) and returns its output; fails unless every check passed. `None` when pymavlink
+/// is missing (after [`skip`]).
+pub fn run_router_checks(script: &str) -> Option<String> {
+    let Some((python, dialects)) = pymavlink() else {
+        skip("pymavlink is missing");
+        return None;
+    };
+    let workdir = tempfile::tempdir().expect("a scratch directory");
+    let out = Command::new(python)
+        .arg(workspace().join("tests/mavlink").join(script))
+        .arg("--router")
+        .arg(ferrolink())
+        .arg("--dialect-dir")
+        .arg(&dialects)
+        .arg("--workdir")
+        .arg(workdir.path())
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run {script}: {e}"));
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "some checks failed:\n{stdout}");
+    assert!(stdout.contains(" 0 failed"), "{stdout}");
+    Some(stdout)
+}
