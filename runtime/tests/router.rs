@@ -300,6 +300,7 @@ fn routes_age_out_and_closed_links_forget_theirs() {
         one(&mut r, 0, &cmd, DEFAULT_ROUTE_TTL_US + 1),
         (0, Some(Drop::NoRoute))
     );
+    r.expire(DEFAULT_ROUTE_TTL_US + 1);
     assert!(r.counters().routes_expired >= 1);
     one(&mut r, 2, &heartbeat(2, 1), DEFAULT_ROUTE_TTL_US + 2);
     r.close_link(2);

@@ -22,7 +22,7 @@ use super::{tlog, unix_us};
 use crate::peers::{self, Event, PeerId, Sender};
 
 /// Route and source table sizes of the daemon.
-type Daemon = Router<MAX_LINKS, 1024, 256, 1024>;
+type Daemon = Router<MAX_LINKS, 512, 256, 256>;
 
 /// What the router daemon does.
 #[derive(Debug, Clone, Default)]

@@ -29,7 +29,8 @@
 //! - **Signing at the edge.** A link with [`LinkConfig::require_signing`] drops unsigned frames,
 //!   bad signatures and replays. Signed frames are always forwarded untouched; the router never
 //!   signs anything, so traffic from an untrusted link is never made trusted.
-//! - **Bounded storage.** Routes age out after [`Router::set_route_ttl_us`] (10 s by default). A
+//! - **Bounded storage.** Routes age out after [`Router::set_route_ttl_us`] (10 s by default;
+//!   their slots are freed at most every 100 ms while routing, and on [`Router::expire`]). A
 //!   full route or source table evicts its oldest entry, counts it, and keeps working.
 //!
 //! ```
@@ -415,8 +416,13 @@ struct State<const L: usize, const R: usize, const S: usize, const D: usize> {
     seen: [Seen; D],
     seen_next: usize,
     route_ttl_us: u64,
+    /// When routes were last checked for their age (they are, at most every 100 ms).
+    expired_at_us: u64,
     counters: RouterCounters,
 }
+
+/// How often routing looks for routes that aged out.
+const EXPIRE_EVERY_US: u64 = 100_000;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -439,6 +445,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> Router<L, R
                 seen: [Seen::default(); D],
                 seen_next: 0,
                 route_ttl_us: DEFAULT_ROUTE_TTL_US,
+                expired_at_us: 0,
                 counters: RouterCounters::default(),
             },
         }
@@ -512,8 +519,8 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> Router<L, R
         self.state.sources.iter().flatten()
     }
 
-    /// The routes learned and not yet aged out (as of the last [`Router::receive`] or
-    /// [`Router::expire`]).
+    /// The routes learned and not yet freed: routing frees aged-out routes at most every 100 ms,
+    /// [`Router::expire`] at once.
     pub fn routes(&self) -> impl Iterator<Item = &Route> + '_ {
         self.state.routes.iter().flatten()
     }
@@ -579,6 +586,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R,
         if self.route_ttl_us == 0 {
             return;
         }
+        self.expired_at_us = now_us;
         for slot in &mut self.routes {
             if slot.is_some_and(|r| now_us.saturating_sub(r.last_seen_us) > self.route_ttl_us) {
                 *slot = None;
@@ -619,11 +627,13 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R,
 
         self.count_source(header.sysid, header.compid, header.seq, len, rx_us);
         self.learn(header.sysid, header.compid, from, rx_us);
-        self.expire(now_us);
+        if now_us.abs_diff(self.expired_at_us) >= EXPIRE_EVERY_US {
+            self.expire(now_us);
+        }
 
         let candidates = match target(frame) {
             None | Some((0, _)) => self.open_mask(),
-            Some((sysid, compid)) => self.links_for(sysid, compid),
+            Some((sysid, compid)) => self.links_for(sysid, compid, now_us),
         };
         let candidates = candidates & !((1 << from) | self.group_mask(from));
         if candidates == 0 {
@@ -708,11 +718,15 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R,
             .fold(0, |m, (i, _)| m | (1 << i))
     }
 
-    /// The links a frame for `(sysid, compid)` goes to, groups expanded.
-    fn links_for(&self, sysid: u8, compid: u8) -> LinkMask {
+    /// The links a frame for `(sysid, compid)` goes to, groups expanded. Routes that aged out
+    /// count as gone even before their slots are cleared.
+    fn links_for(&self, sysid: u8, compid: u8, now_us: u64) -> LinkMask {
         let mut exact: LinkMask = 0;
         let mut system: LinkMask = 0;
-        for r in self.routes.iter().flatten() {
+        let live = |r: &&Route| {
+            self.route_ttl_us == 0 || now_us.saturating_sub(r.last_seen_us) <= self.route_ttl_us
+        };
+        for r in self.routes.iter().flatten().filter(live) {
             if r.sysid == sysid {
                 system |= 1 << r.link;
                 if r.compid == compid {
