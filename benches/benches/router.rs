@@ -11,7 +11,10 @@
 //! - at 10,000 msg/s offered for 5 s: what arrived at B and C, the router's CPU time per 10,000
 //!   messages (from /proc), and the latency from A to B at p50 and p99;
 //! - the most it forwards: 100,000 msg/s offered for 3 s, messages per second arriving at B;
-//! - idle: CPU use over 5 s with the three peers connected and nothing sent.
+//! - idle: CPU use over 5 s with the three peers connected and nothing sent;
+//! - six peers, one per endpoint, each sending broadcasts at a sixth of 10,000 msg/s for 5 s: the
+//!   share of the copies owed to the other five that arrived (not for MAVProxy, which forwards
+//!   between its master and its outputs only).
 //!
 //! Peers that are not installed are skipped with a note: mavlink-routerd is taken from
 //! `MAVLINK_ROUTERD` or the `PATH`, MAVProxy from `.venv/bin/mavproxy.py` or the `PATH`.
@@ -88,7 +91,7 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-fn start_ferrolink(ports: [u16; 3]) -> Option<Router> {
+fn start_ferrolink(ports: &[u16]) -> Option<Router> {
     let bin = workspace().join("target/release/ferrolink");
     if !bin.exists() {
         eprintln!(
@@ -99,7 +102,7 @@ fn start_ferrolink(ports: [u16; 3]) -> Option<Router> {
     }
     let mut child = Command::new(bin)
         .args(["mavlink", "router"])
-        .args(ports.map(|p| format!("udpin://127.0.0.1:{p}")))
+        .args(ports.iter().map(|p| format!("udpin://127.0.0.1:{p}")))
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -123,7 +126,7 @@ fn which(name: &str) -> Option<PathBuf> {
     })
 }
 
-fn start_mavlink_routerd(ports: [u16; 3]) -> Option<Router> {
+fn start_mavlink_routerd(ports: &[u16]) -> Option<Router> {
     let Some(bin) = std::env::var_os("MAVLINK_ROUTERD")
         .map(PathBuf::from)
         .or_else(|| which("mavlink-routerd"))
@@ -153,7 +156,7 @@ fn start_mavlink_routerd(ports: [u16; 3]) -> Option<Router> {
     })
 }
 
-fn start_mavproxy(ports: [u16; 3]) -> Option<Router> {
+fn start_mavproxy(ports: &[u16]) -> Option<Router> {
     let venv = workspace().join(".venv/bin/mavproxy.py");
     let Some(bin) = venv
         .exists()
@@ -295,6 +298,7 @@ fn percentile(sorted: &[u64], p: f64) -> u64 {
 
 struct Row {
     name: &'static str,
+    six_peers: Option<f64>,
     delivered: f64,
     cpu_per_10k_ms: f64,
     p50: u64,
@@ -303,7 +307,7 @@ struct Row {
     idle_pct: f64,
 }
 
-fn measure(router: &Router, ports: [u16; 3]) -> Row {
+fn measure(router: &Router, ports: &[u16]) -> Row {
     let pid = router.child.id();
     let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
     source.connect(("127.0.0.1", ports[0])).expect("connect");
@@ -330,6 +334,7 @@ fn measure(router: &Router, ports: [u16; 3]) -> Row {
     let forwarded = (lb.len() + lc.len()).max(1) as f64;
     let row = Row {
         name: router.name,
+        six_peers: None,
         delivered,
         cpu_per_10k_ms: cpu.as_secs_f64() * 1e3 * 10_000.0 / forwarded,
         p50: percentile(&lb, 0.5),
@@ -345,6 +350,31 @@ fn measure(router: &Router, ports: [u16; 3]) -> Row {
     let max_rate = b.take().len() as f64 / window.as_secs_f64();
     let _ = c.take();
     Row { max_rate, ..row }
+}
+
+/// Six peers, one per endpoint, each sending PING broadcasts at a sixth of 10,000 msg/s for 5 s:
+/// the share of the copies owed to the other five that arrived.
+fn six_peers(ports: &[u16]) -> f64 {
+    let sinks: Vec<Sink> = ports
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| Sink::new(p, 10 + i as u8))
+        .collect();
+    thread::sleep(Duration::from_millis(500));
+    for s in &sinks {
+        s.take();
+    }
+    let senders: Vec<_> = sinks
+        .iter()
+        .map(|s| {
+            let socket = s.socket.try_clone().expect("clone");
+            thread::spawn(move || send(&socket, 10_000 / 6, Duration::from_secs(5)))
+        })
+        .collect();
+    let sent: u64 = senders.into_iter().map(|t| t.join().unwrap_or(0)).sum();
+    thread::sleep(Duration::from_millis(500));
+    let received: usize = sinks.iter().map(|s| s.take().len()).sum();
+    received as f64 / (5 * sent) as f64
 }
 
 fn machine() -> String {
@@ -366,25 +396,38 @@ fn main() {
     println!("machine: {}", machine());
     println!("three UDP endpoints on loopback; PING broadcasts from A to B and C");
     let mut rows = Vec::new();
-    type Start = fn([u16; 3]) -> Option<Router>;
+    type Start = fn(&[u16]) -> Option<Router>;
     let starters: [(u16, Start); 3] = [
         (34550, start_ferrolink),
         (34560, start_mavlink_routerd),
         (34570, start_mavproxy),
     ];
-    for (base, start) in starters {
+    for (i, (base, start)) in starters.into_iter().enumerate() {
         let ports = [base, base + 1, base + 2];
-        if let Some(router) = start(ports) {
-            rows.push(measure(&router, ports));
+        let Some(router) = start(&ports) else {
+            continue;
+        };
+        let mut row = measure(&router, &ports);
+        drop(router);
+        // MAVProxy forwards between its master and its outputs only, not among outputs.
+        if i < 2 {
+            let ports: Vec<u16> = (base + 3..base + 9).collect();
+            if let Some(router) = start(&ports) {
+                row.six_peers = Some(six_peers(&ports));
+            }
         }
+        rows.push(row);
     }
     println!(
-        "\n| router | delivered at 10k msg/s | CPU per 10,000 msgs | latency p50 | p99 | most forwarded to one peer | idle CPU |"
+        "\n| router | delivered at 10k msg/s | six peers, 10k msg/s in all | CPU per 10,000 msgs | latency p50 | p99 | most forwarded to one peer | idle CPU |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
+        let six = r
+            .six_peers
+            .map_or_else(|| "n/a".to_owned(), |d| format!("{:.2} %", 100.0 * d));
         println!(
-            "| {} | {:.2} % | {:.1} ms | {} µs | {} µs | {:.0} msg/s | {:.2} % |",
+            "| {} | {:.2} % | {six} | {:.1} ms | {} µs | {} µs | {:.0} msg/s | {:.2} % |",
             r.name,
             100.0 * r.delivered,
             r.cpu_per_10k_ms,

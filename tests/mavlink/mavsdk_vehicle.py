@@ -19,7 +19,9 @@ compid 1 set explicitly. Everything it puts on the wire comes from MAVSDK itself
   not stream messages at a requested interval on its own (its SET_MESSAGE_INTERVAL
   handler only records the interval), so this script publishes ATTITUDE at the interval
   the last SET_MESSAGE_INTERVAL for message 30 asked for, as MAVSDK logged it. With
-  ``--attitude-hz HZ`` it publishes at HZ from the start instead, request or not.
+  ``--attitude-hz HZ`` it publishes at HZ from the start instead, request or not; with a
+  negative HZ it never calls publish_attitude, which shows what MAVSDK does by itself
+  (it acknowledges the request and sends no ATTITUDE).
 * GLOBAL_POSITION_INT and BATTERY_STATUS at 1 Hz (publish_position, publish_battery).
 
 It watches incoming traffic with MavlinkDirectServer.subscribe_message (which only
@@ -86,11 +88,11 @@ async def run(args):
     start = time.monotonic()
 
     async with Mavsdk(cfg) as mavsdk:
-        await mavsdk.add_any_connection(args.connection)
+        # Plugins and subscriptions first, the connection last: the companion answers
+        # MAVSDK's first heartbeat within milliseconds.
         component = await mavsdk.server_component()
         telemetry = TelemetryServerAsync(component)
         direct = MavlinkDirectServerAsync(component)
-        say("MAVSDK %s autopilot 1/1 on %s" % (await mavsdk.version(), args.connection))
 
         async def watch_heartbeats():
             seen = set()
@@ -122,6 +124,7 @@ async def run(args):
 
         async def publish_attitude():
             period = 1.0 / args.attitude_hz if args.attitude_hz > 0 else None
+            follow = args.attitude_hz == 0
             if period:
                 say("publishing ATTITUDE at %g Hz" % args.attitude_hz)
             next_t = time.monotonic()
@@ -130,7 +133,7 @@ async def run(args):
                 try:
                     msgid, interval_ms = await asyncio.wait_for(intervals.get(), timeout)
                     say("MAVSDK: interval for message %d set to %d ms" % (msgid, interval_ms))
-                    if msgid == ATTITUDE_ID and args.attitude_hz <= 0 and interval_ms > 0:
+                    if msgid == ATTITUDE_ID and follow and interval_ms > 0:
                         period = interval_ms / 1000.0
                         next_t = time.monotonic()
                         say("publishing ATTITUDE at %g Hz" % (1.0 / period))
@@ -163,7 +166,11 @@ async def run(args):
 
         tasks = [asyncio.ensure_future(c) for c in (
             watch_heartbeats(), watch_commands("COMMAND_LONG"), watch_commands("COMMAND_INT"),
-            watch_acks(), publish_attitude(), publish_slow())]
+            watch_acks(), publish_attitude())]
+        await asyncio.sleep(0.2)  # let the watchers subscribe
+        await mavsdk.add_any_connection(args.connection)
+        say("MAVSDK %s autopilot 1/1 on %s" % (await mavsdk.version(), args.connection))
+        tasks.append(asyncio.ensure_future(publish_slow()))
         try:
             await asyncio.sleep(max(0.0, args.seconds - (time.monotonic() - start)))
         finally:
@@ -182,8 +189,8 @@ def main():
     ap.add_argument("connection", nargs="?", default="udpout://127.0.0.1:14550")
     ap.add_argument("--seconds", type=float, default=10.0)
     ap.add_argument("--attitude-hz", type=float, default=0.0,
-                    help="publish ATTITUDE at this rate from the start (default: only at "
-                         "the interval a SET_MESSAGE_INTERVAL asks for)")
+                    help="publish ATTITUDE at this rate from the start; 0 (default): at the "
+                         "interval a SET_MESSAGE_INTERVAL asks for; negative: never")
     args = ap.parse_args()
     return asyncio.run(run(args))
 

@@ -348,8 +348,12 @@ class Router(object):
         self.ready = threading.Event()
         self.status = None
         self.err = open(self.err_path, "wb")
-        self.proc = subprocess.Popen(self.cmd, stdin=subprocess.DEVNULL,
-                                     stdout=subprocess.PIPE, stderr=self.err)
+        try:
+            self.proc = subprocess.Popen(self.cmd, stdin=subprocess.DEVNULL,
+                                         stdout=subprocess.PIPE, stderr=self.err)
+        except OSError:
+            self.err.close()
+            raise
         self.reader = threading.Thread(target=self._read_stdout, daemon=True)
         self.reader.start()
 
@@ -362,18 +366,19 @@ class Router(object):
                     self.ready.set()
 
     def stderr_tail(self):
+        """': ' and the last lines of the router's stderr, if it wrote any."""
         try:
             with open(self.err_path, "rb") as f:
                 lines = f.read().decode(errors="replace").strip().splitlines()
         except OSError:
             return ""
-        return " | ".join(lines[-3:])
+        return ": " + " | ".join(lines[-3:]) if lines else ""
 
     def wait_ready(self):
         deadline = time.monotonic() + READY_TIMEOUT
         while not self.ready.wait(0.05):
             if self.proc.poll() is not None:
-                raise CheckFailed("router exited with status %s before ready: %s"
+                raise CheckFailed("router exited with status %s before ready%s"
                                   % (self.proc.returncode, self.stderr_tail()))
             if time.monotonic() > deadline:
                 raise CheckFailed("router printed no 'ready' line within %.0f s"
@@ -387,7 +392,7 @@ class Router(object):
         if rc is not None:
             self.status = rc
             self._close()
-            raise CheckFailed("router exited early with status %s: %s"
+            raise CheckFailed("router exited early with status %s%s"
                               % (rc, self.stderr_tail()))
         self.proc.send_signal(signal.SIGTERM)
         try:
@@ -399,7 +404,7 @@ class Router(object):
             raise CheckFailed("router still running %.0f s after SIGTERM" % EXIT_TIMEOUT)
         self._close()
         if self.status != 0:
-            raise CheckFailed("router exited with status %s after SIGTERM: %s"
+            raise CheckFailed("router exited with status %s after SIGTERM%s"
                               % (self.status, self.stderr_tail()))
 
     def kill(self):
