@@ -412,7 +412,8 @@ fn main() {
         // MAVProxy forwards between its master and its outputs only, not among outputs.
         if i < 2 {
             let ports: Vec<u16> = (base + 3..base + 9).collect();
-            if let Some(router) = start(&ports) {
+            // The router runs until `_router` is dropped at the end of the block.
+            if let Some(_router) = start(&ports) {
                 row.six_peers = Some(six_peers(&ports));
             }
         }
