@@ -1,9 +1,9 @@
-//! `ferrolink mavlink router` against pymavlink-built nodes on loopback: the routing rules as a
-//! table of checks (`tests/mavlink/router_rules.py`), each with its own router process:
-//! broadcast and no echo, targeted, component-targeted, unknown target, unknown ids and signed
-//! frames forwarded byte for byte, garbage that teaches no route, two ground stations on one
-//! `udpin` port, several frames in one datagram, many `tcpin` clients, a `tcpout` peer that
-//! restarts, and a serial device (a pty).
+//! `ferrolink mavlink router` against pymavlink nodes on loopback: the routing rules as a table
+//! of checks (`tests/mavlink/router_peers.py`), each with its own router process: broadcast and
+//! no echo, targeted, component-targeted, unknown target, unknown ids and signed frames
+//! forwarded byte for byte, garbage that teaches no route, two ground stations on one `udpin`
+//! port, a `tcpout` peer that restarts, many `tcpin` clients, several frames in one datagram, a
+//! serial device (a pty), and the tlog read back by pymavlink.
 //!
 //! Needs a Python with pymavlink (`tests/run-all.sh` installs it); without one the test says so
 //! and passes, unless `FERROLINK_REQUIRE_PYMAVLINK` is set.
@@ -12,5 +12,5 @@ mod common;
 
 #[test]
 fn routing_rules_against_pymavlink_nodes() {
-    common::run_router_checks("router_rules.py");
+    common::run_router_checks("router_peers.py");
 }

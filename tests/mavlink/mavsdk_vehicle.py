@@ -23,6 +23,7 @@ compid 1 set explicitly. Everything it puts on the wire comes from MAVSDK itself
   negative HZ it never calls publish_attitude, which shows what MAVSDK does by itself
   (it acknowledges the request and sends no ATTITUDE).
 * GLOBAL_POSITION_INT and BATTERY_STATUS at 1 Hz (publish_position, publish_battery).
+* PING (target 0/0), once, about 5 s after MAVSDK starts, sent by the core.
 
 It watches incoming traffic with MavlinkDirectServer.subscribe_message (which only
 observes; MAVSDK still acknowledges the commands) and MAVSDK's log, and prints one line

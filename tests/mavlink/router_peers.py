@@ -2,11 +2,12 @@
 """Exercise `ferrolink mavlink router` with pymavlink nodes on loopback.
 
 Usage:
-    router_peers.py --router FERROLINK --dialect COMMON.xml --workdir DIR [--only NAME]
+    router_peers.py --router FERROLINK --dialect-dir DIR --workdir DIR [--only NAME]
 
-Every check starts its own router process, waits for its "ready" line, puts
-pymavlink nodes (and a few raw sockets, where frames must be compared byte for
-byte) on its UDP and TCP endpoints, and stops it with SIGTERM, expecting exit
+Every check starts its own router process (with pymavlink's common.xml from the
+--dialect-dir), waits for its "ready" line, puts pymavlink nodes (and a few raw
+sockets and a pty, where frames must be compared byte for byte) on its UDP, TCP
+and serial endpoints, and stops it with SIGTERM, expecting exit
 status 0.  One line is printed per check, `ok   NAME` or `FAIL NAME: detail`,
 then `N passed, M failed`.  The exit status is 0 when every check passed.
 
@@ -17,6 +18,7 @@ Router output goes to DIR/NAME/router.{out,err}.
 
 import argparse
 import os
+import pty
 import random
 import signal
 import socket
@@ -25,6 +27,7 @@ import subprocess
 import sys
 import threading
 import time
+import tty
 from collections import namedtuple
 
 sys.dont_write_bytecode = True  # keep the source tree clean
@@ -256,6 +259,58 @@ class RawUdpNode(Node):
 
     def close(self):
         self.sock.close()
+
+
+class PtyNode(Node):
+    """A device on a serial line: the master side of a pseudo-terminal whose slave the router
+    opens as `serial://`."""
+
+    def __init__(self, name, sysid, compid, mav_type):
+        Node.__init__(self, name, sysid, compid, mav_type)
+        self.master, self.slave = pty.openpty()
+        tty.setraw(self.master)
+        tty.setraw(self.slave)
+        os.set_blocking(self.master, False)
+        self.path = os.ttyname(self.slave)
+        self.encoder = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+        self.decoder = mavlink.MAVLink(None)
+        self.buf = b""
+        self.skipped = 0
+
+    def send(self, msg):
+        raw = bytes(msg.pack(self.encoder))
+        self.encoder.seq = (self.encoder.seq + 1) % 256
+        return self.send_raw(raw)
+
+    def send_raw(self, data, frame=True):
+        os.write(self.master, data)
+        if frame:
+            self.sent.append(bytes(data))
+        return data
+
+    def poll(self):
+        while True:
+            try:
+                data = os.read(self.master, 65535)
+            except (BlockingIOError, OSError):
+                break
+            if not data:
+                break
+            self.buf += data
+        # A byte stream: whole frames are taken, a partial one waits for the rest.
+        frames, skipped, self.buf = split_frames(self.buf)
+        self.skipped += skipped
+        self.inbox.extend(rx_from_frame(self.decoder, f) for f in frames)
+
+    def junk(self):
+        return self.skipped
+
+    def close(self):
+        for fd in (self.master, self.slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
 
 
 class TcpServer(object):
@@ -875,6 +930,39 @@ def check_tlog(h):
                           % (n_unknown, len(unknown)))
 
 
+def check_several_frames_in_one_datagram(h):
+    """mavp2p once read only the first frame of a datagram (gomavlib#245)."""
+    a, b = free_ports(socket.SOCK_DGRAM, 2)
+    h.start_router([udpin(a), udpin(b)])
+    src = h.raw("source", a, 1, 1, mavlink.MAV_TYPE_QUADROTOR)
+    gcs = h.mav("gcs", udp_peer(b), 255, 190, mavlink.MAV_TYPE_GCS)
+    h.mesh([src, gcs])
+    tags = [h.next_tag() for _ in range(3)]
+    frames = []
+    for tag in tags:
+        msg = src.encoder.command_long_encode(0, 0, CMD, 0, float(tag), 0, 0, 0, 0, 0, 0)
+        frames.append(bytes(msg.pack(src.encoder)))
+        src.encoder.seq = (src.encoder.seq + 1) % 256
+    src.send_raw(b"".join(frames), frame=False)
+    src.sent.extend(frames)
+    for tag in tags:
+        h.deliver("COMMAND_LONG %d of one datagram" % tag, is_command(tag), [gcs])
+
+
+def check_serial(h):
+    """A device on a serial line (a pty) and a GCS on UDP, both ways."""
+    (port,) = free_ports(socket.SOCK_DGRAM, 1)
+    device = PtyNode("device", 1, 1, mavlink.MAV_TYPE_QUADROTOR)
+    h.nodes.append(device)
+    h.start_router(["serial://%s:57600" % device.path, udpin(port)])
+    gcs = h.mav("gcs", udp_peer(port), 255, 190, mavlink.MAV_TYPE_GCS)
+    # The serial endpoint opens the device in the background.
+    h.mesh([device, gcs], timeout=8.0)
+    tag = h.next_tag()
+    gcs.command_long(1, 1, tag)
+    h.deliver("COMMAND_LONG to the serial device", is_command(tag), [device])
+
+
 CHECKS = [
     ("broadcast", check_broadcast),
     ("targeted", check_targeted),
@@ -885,6 +973,8 @@ CHECKS = [
     ("two_gcs_one_port", check_two_gcs_one_port),
     ("tcpout_reconnect", check_tcpout_reconnect),
     ("tcpin_many", check_tcpin_many),
+    ("several_frames_in_one_datagram", check_several_frames_in_one_datagram),
+    ("serial", check_serial),
     ("tlog", check_tlog),
 ]
 
@@ -910,10 +1000,12 @@ def run_check(args, name, func):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--router", required=True, help="the ferrolink binary")
-    ap.add_argument("--dialect", required=True, help="common.xml, given to the router")
+    ap.add_argument("--dialect-dir", required=True,
+                    help="pymavlink's dialects/v20 folder; its common.xml is given to the router")
     ap.add_argument("--workdir", required=True, help="scratch directory")
     ap.add_argument("--only", choices=[name for name, _ in CHECKS], help="run one check")
     args = ap.parse_args(argv)
+    args.dialect = os.path.join(args.dialect_dir, "common.xml")
     os.makedirs(args.workdir, exist_ok=True)
 
     passed = failed = 0

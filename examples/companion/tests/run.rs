@@ -9,21 +9,62 @@ use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn python() -> Option<PathBuf> {
+/// A Python that can import `module`.
+fn python(module: &str) -> Option<PathBuf> {
     let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let python = std::env::var_os("FERROLINK_PYTHON")
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace.join(".venv/bin/python"));
     let ok = Command::new(&python)
-        .args(["-c", "import pymavlink"])
+        .args(["-c", &format!("import {module}")])
         .status()
         .is_ok_and(|s| s.success());
     ok.then_some(python)
 }
 
+/// Runs the companion for 4 s (6 s with `seconds`) against `vehicle` (a script of
+/// `tests/mavlink/` started with the URL to reach the companion at) and returns what both
+/// printed, after checking the companion succeeded.
+fn against(
+    python: PathBuf,
+    vehicle: &str,
+    url: impl Fn(u16) -> String,
+    seconds: u32,
+) -> (String, String) {
+    let port = UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .expect("a free port")
+        .port();
+    let companion = Command::new(env!("CARGO_BIN_EXE_ferrolink-example-companion"))
+        .args([
+            &format!("udpin://127.0.0.1:{port}"),
+            "--seconds",
+            &seconds.to_string(),
+        ])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("start the companion");
+    let script = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../tests/mavlink")
+        .join(vehicle);
+    let vehicle = Command::new(python)
+        .arg(script)
+        .args([&url(port), "--seconds", &(seconds + 1).to_string()])
+        .output()
+        .expect("run the vehicle");
+    let out = companion.wait_with_output().expect("companion output");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    let vehicle_text = String::from_utf8_lossy(&vehicle.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "companion:\n{text}\nvehicle:\n{vehicle_text}"
+    );
+    (text, vehicle_text)
+}
+
 #[test]
 fn companion_against_a_pymavlink_vehicle() {
-    let Some(python) = python() else {
+    let Some(python) = python("pymavlink") else {
         assert!(
             std::env::var_os("FERROLINK_REQUIRE_PYMAVLINK").is_none(),
             "pymavlink is required"
@@ -31,28 +72,7 @@ fn companion_against_a_pymavlink_vehicle() {
         eprintln!("skipped: no pymavlink");
         return;
     };
-    let port = UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .expect("a free port")
-        .port();
-    let companion = Command::new(env!("CARGO_BIN_EXE_ferrolink-example-companion"))
-        .args([&format!("udpin://127.0.0.1:{port}"), "--seconds", "4"])
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .expect("start the companion");
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/mavlink/vehicle.py");
-    let vehicle = Command::new(python)
-        .arg(script)
-        .args([&format!("udpout:127.0.0.1:{port}"), "--seconds", "5"])
-        .output()
-        .expect("run the vehicle");
-    let out = companion.wait_with_output().expect("companion output");
-    let text = String::from_utf8_lossy(&out.stdout);
-    let vehicle_text = String::from_utf8_lossy(&vehicle.stdout);
-    assert!(
-        out.status.success(),
-        "companion:\n{text}\nvehicle:\n{vehicle_text}"
-    );
+    let (text, vehicle) = against(python, "vehicle.py", |p| format!("udpout:127.0.0.1:{p}"), 4);
     assert!(
         text.contains("heartbeat from 1/1: Quadrotor Ardupilotmega"),
         "{text}"
@@ -60,7 +80,31 @@ fn companion_against_a_pymavlink_vehicle() {
     assert!(text.contains("attitude: roll"), "{text}");
     assert!(text.contains("ack: Unknown(511) Accepted"), "{text}");
     assert!(
-        vehicle_text.contains("command 511 from 1/191 acknowledged"),
-        "{vehicle_text}"
+        vehicle.contains("command 511 from 1/191 acknowledged"),
+        "{vehicle}"
     );
+}
+
+/// The same against a vehicle built from MAVSDK's server plugins: MAVSDK acknowledges the
+/// interval request itself, and the vehicle streams ATTITUDE at the interval asked for.
+#[test]
+fn companion_against_a_mavsdk_vehicle() {
+    let Some(python) = python("mavsdk") else {
+        assert!(
+            std::env::var_os("FERROLINK_REQUIRE_GCS").is_none(),
+            "mavsdk is required"
+        );
+        eprintln!("skipped: no mavsdk");
+        return;
+    };
+    let (text, vehicle) = against(
+        python,
+        "mavsdk_vehicle.py",
+        |p| format!("udpout://127.0.0.1:{p}"),
+        6,
+    );
+    assert!(text.contains("heartbeat from 1/1"), "{text}");
+    assert!(text.contains("ack: Unknown(511) Accepted"), "{text}");
+    assert!(text.contains("attitude: roll"), "{text}");
+    assert!(vehicle.contains("got command 511 from 1/191"), "{vehicle}");
 }
