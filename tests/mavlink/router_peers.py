@@ -928,6 +928,15 @@ def check_tlog(h):
     if n_unknown != len(unknown):
         raise CheckFailed("pymavlink finds %d unknown-id frames in the tlog, expected %d"
                           % (n_unknown, len(unknown)))
+    # And the tool people use on tlogs, mavlogdump.py, prints one line per frame.
+    tool = os.path.join(os.path.dirname(sys.executable), "mavlogdump.py")
+    if os.path.exists(tool):
+        out = subprocess.run([sys.executable, tool, "--dialect", "common", tlog],
+                             capture_output=True, text=True, timeout=60)
+        lines = [l for l in out.stdout.splitlines() if l.strip()]
+        if out.returncode != 0 or len(lines) != len(logged):
+            raise CheckFailed("mavlogdump.py printed %d lines (status %d) for %d frames: %s"
+                              % (len(lines), out.returncode, len(logged), out.stderr[-300:]))
 
 
 def check_several_frames_in_one_datagram(h):
