@@ -1,4 +1,15 @@
-//! Byte-stream transports for NDLCom bridges.
+//! Ferrolink on PCs: links, and the programs that run protocols over them.
+//!
+//! - [`mavlink`]: connections from URIs (blocking, or async with the `tokio` feature),
+//!   telemetry logs, router configuration files and the router daemon, on top of [`peers`]:
+//!   endpoints with any number of peers (each UDP sender, each TCP client), reconnecting TCP
+//!   clients and serial devices that survive being unplugged.
+//! - [`bridge`]: the NDLCom bridge program, on the links below.
+//! - [`tosnet`] and [`modrob`]: TosNet rings and ModRob-1 networks, simulated and over UDP.
+//!
+//! The serial, pty and TCP primitives underneath are shared by both link kinds.
+//!
+//! # NDLCom links
 //!
 //! An NDLCom interface is named by a URI, the same forms the C reference implementation takes.
 //! [`Endpoint`] parses one; [`Link::open`] opens it; [`Link::split`] hands out a reader and a
