@@ -126,7 +126,7 @@ impl From<Event<'_>> for Owned {
 }
 
 /// How a connection waits for its endpoint's events: [`Blocking`] or, with the `tokio`
-/// feature, [`Async`].
+/// feature, `Async`.
 pub trait Events: Sized {
     /// Starts receiving, and gives the sink the endpoint reports to.
     fn new() -> (Self, peers::Sink);
@@ -171,7 +171,7 @@ impl Events for Async {
 pub type AsyncConnection = Connection<Async>;
 
 /// A MAVLink connection on one endpoint URI (see [`crate::peers`] for the forms): blocking, or
-/// async as [`AsyncConnection`] (feature `tokio`).
+/// async as `AsyncConnection` (feature `tokio`).
 ///
 /// Frames are received from every peer of the endpoint (each with its own stream parser, so
 /// interleaved peers never corrupt each other) and sent to every peer: on `udpin`, that is every
