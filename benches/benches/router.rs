@@ -48,7 +48,8 @@ fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-fn ping(seq: u32) -> Vec<u8> {
+/// A PING broadcast from `sysid`, its send time in `time_usec`.
+fn ping(seq: u32, sysid: u8) -> Vec<u8> {
     let mut payload = [0u8; 14];
     payload[..8].copy_from_slice(&now_us().to_le_bytes());
     payload[8..12].copy_from_slice(&seq.to_le_bytes());
@@ -275,14 +276,14 @@ impl Drop for Sink {
     }
 }
 
-/// Sends `rate` PINGs per second for `duration` to `port`; returns how many were sent.
-fn send(socket: &UdpSocket, rate: u64, duration: Duration) -> u64 {
+/// Sends `rate` PINGs per second from `sysid` for `duration`; returns how many were sent.
+fn send(socket: &UdpSocket, sysid: u8, rate: u64, duration: Duration) -> u64 {
     let start = Instant::now();
     let mut sent = 0u64;
     while start.elapsed() < duration {
         let due = (start.elapsed().as_secs_f64() * rate as f64) as u64;
         while sent < due {
-            let _ = socket.send(&ping(sent as u32));
+            let _ = socket.send(&ping(sent as u32, sysid));
             sent += 1;
         }
         thread::sleep(Duration::from_micros(200));
@@ -326,7 +327,7 @@ fn measure(router: &Router, ports: &[u16]) -> Row {
 
     // 10,000 msg/s.
     let before = cpu_time(pid).unwrap_or_default();
-    let sent = send(&source, 10_000, Duration::from_secs(5));
+    let sent = send(&source, 1, 10_000, Duration::from_secs(5));
     thread::sleep(Duration::from_millis(500));
     let cpu = cpu_time(pid).unwrap_or_default().saturating_sub(before);
     let (mut lb, lc) = (b.take(), c.take());
@@ -346,15 +347,15 @@ fn measure(router: &Router, ports: &[u16]) -> Row {
 
     // The most it forwards to one peer.
     let window = Duration::from_secs(3);
-    send(&source, 100_000, window);
+    send(&source, 1, 100_000, window);
     thread::sleep(Duration::from_millis(500));
     let max_rate = b.take().len() as f64 / window.as_secs_f64();
     let _ = c.take();
     Row { max_rate, ..row }
 }
 
-/// Six peers, one per endpoint, each sending PING broadcasts at a sixth of 10,000 msg/s for 5 s:
-/// the share of the copies owed to the other five that arrived.
+/// Six peers, one per endpoint and each a system of its own, sending PING broadcasts at a sixth
+/// of 10,000 msg/s for 5 s: the share of the copies owed to the other five that arrived.
 fn six_peers(ports: &[u16]) -> f64 {
     let sinks: Vec<Sink> = ports
         .iter()
@@ -367,9 +368,11 @@ fn six_peers(ports: &[u16]) -> f64 {
     }
     let senders: Vec<_> = sinks
         .iter()
-        .map(|s| {
+        .enumerate()
+        .map(|(i, s)| {
             let socket = s.socket.try_clone().expect("clone");
-            thread::spawn(move || send(&socket, 10_000 / 6, Duration::from_secs(5)))
+            let sysid = 10 + i as u8;
+            thread::spawn(move || send(&socket, sysid, 10_000 / 6, Duration::from_secs(5)))
         })
         .collect();
     let sent: u64 = senders.into_iter().map(|t| t.join().unwrap_or(0)).sum();
