@@ -54,8 +54,8 @@ fn ping(seq: u32, sysid: u8) -> Vec<u8> {
     payload[..8].copy_from_slice(&now_us().to_le_bytes());
     payload[8..12].copy_from_slice(&seq.to_le_bytes());
     let mut out = [0u8; v2::MAX_FRAME_LEN];
-    let n =
-        v2::encode_raw(Header::new(seq as u8, 1, 1), 4, 237, &payload, &mut out).expect("encode");
+    let n = v2::encode_raw(Header::new(seq as u8, sysid, 1), 4, 237, &payload, &mut out)
+        .expect("encode");
     out[..n].to_vec()
 }
 
