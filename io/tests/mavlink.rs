@@ -281,6 +281,8 @@ fn config_readers_survive_odd_text() {
         "[General]\nTcpServerPort=70000\n",
         "[UartEndpoint]\nDevice=/dev/x,9600\n",
         "\u{0}\u{ff}[",
+        // Found by fuzzing: an empty device.
+        "[UartEndpoint alpha]\nDevice = ",
     ] {
         scripts::check_config(text.as_bytes());
     }

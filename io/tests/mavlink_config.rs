@@ -56,7 +56,7 @@ fn toml_errors_say_where() {
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nbogus = 1\n"), @"3:1: unknown field `bogus`, expected one of `uri`, `group`, `dedup_ms`, `max_delay_ms`, `signing_key`, `drop_unknown_ids`, `allow_msg_in`, `block_msg_in`, `allow_msg_out`, `block_msg_out`, `allow_src_sys_in`, `block_src_sys_in`, `allow_src_sys_out`, `block_src_sys_out`, `allow_src_comp_in`, `block_src_comp_in`, `allow_src_comp_out`, `block_src_comp_out`");
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"ftp://x:1\"\n"), @r#"
     endpoint #1 (ftp://x:1): unknown scheme "ftp" in "ftp://x:1"
-      hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD]; pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
+      hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME; pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
     "#);
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nsigning_key = \"abc\"\n"), @"endpoint #1 (udpin://x:1): signing_key must be 64 hex digits");
 }
@@ -126,6 +126,10 @@ fn main_conf_errors_say_where() {
     insta::assert_snapshot!(err("[UdpEndpoint a]\nPort = 99999\n"), @r#"[UdpEndpoint a] Port = "99999": not a port"#);
     insta::assert_snapshot!(err("[UdpEndpoint a]\nMode = Sideways\nPort = 1\n"), @r#"[UdpEndpoint a] Mode = "sideways": expected Normal, Server or Eavesdropping"#);
     insta::assert_snapshot!(err("[UartEndpoint a]\nBaud = 1\n"), @"[UartEndpoint a]: Device is missing");
+    // Found by fuzzing: an empty value is no device or address either.
+    insta::assert_snapshot!(err("[UartEndpoint a]\nDevice = \n"), @"[UartEndpoint a]: Device is missing");
+    insta::assert_snapshot!(err("[UdpEndpoint a]\nAddress =\nPort = 1\n"), @"[UdpEndpoint a]: Address is empty");
+    insta::assert_snapshot!(err("[TcpEndpoint a]\nAddress = \nPort = 1\n"), @"[TcpEndpoint a]: Address is missing");
     insta::assert_snapshot!(err("[UdpEndpoint a\nPort = 1\n"), @r#"3:1: expecting "[Some(']')]" but found EOF."#);
     insta::assert_snapshot!(err("[UdpEndpoint a]\nPort = 1\nAllowMsgIdOut = 1,x\n"), @r#"[UdpEndpoint a] allowmsgidout: "x" is not a valid number"#);
 }

@@ -345,8 +345,9 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                 None
             }
             "uartendpoint" => {
-                let device =
-                    get("device").ok_or_else(|| error(format!("{at}: Device is missing")))?;
+                let device = get("device")
+                    .filter(|d| !d.is_empty())
+                    .ok_or_else(|| error(format!("{at}: Device is missing")))?;
                 let baud = get("baud")
                     .and_then(|b| b.split(',').next())
                     .map(|b| {
@@ -360,7 +361,11 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                 Some(Endpoint::Serial(device.to_owned(), baud))
             }
             "udpendpoint" => {
-                let address = get("address").unwrap_or("0.0.0.0").to_owned();
+                let address = match get("address") {
+                    Some("") => return Err(error(format!("{at}: Address is empty"))),
+                    Some(a) => a.to_owned(),
+                    None => "0.0.0.0".to_owned(),
+                };
                 let port = port(get("port"))?;
                 match get("mode").map(str::to_ascii_lowercase).as_deref() {
                     Some("server" | "eavesdropping") => Some(Endpoint::UdpIn(address, port)),
@@ -374,6 +379,7 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
             }
             "tcpendpoint" => {
                 let address = get("address")
+                    .filter(|a| !a.is_empty())
                     .ok_or_else(|| error(format!("{at}: Address is missing")))?
                     .to_owned();
                 let _ = get("retrytimeout");
