@@ -422,23 +422,27 @@ fn udp_in(
     let socket = Arc::new(socket);
     let _ = socket.set_read_timeout(Some(POLL));
     let mut peers: HashMap<SocketAddr, (PeerId, Instant)> = HashMap::new();
+    let mut swept = Instant::now();
     let mut buf = vec![0u8; 65_536];
     while !stop.load(Ordering::Relaxed) {
         let received = socket.recv_from(&mut buf);
         let now = Instant::now();
-        // Peers quiet for too long are gone.
-        let mut gone = Vec::new();
-        peers.retain(|addr, (peer, last)| {
-            let keep = now.duration_since(*last) <= expiry;
-            if !keep {
-                gone.push((*peer, *addr));
-            }
-            keep
-        });
-        for (peer, addr) in gone {
-            let why = format!("{addr} quiet for {} s", expiry.as_secs_f64());
-            if !events(Event::Down { peer, why }) {
-                return;
+        // Peers quiet for too long are gone (looked for at most every POLL).
+        if now.duration_since(swept) >= POLL {
+            swept = now;
+            let mut gone = Vec::new();
+            peers.retain(|addr, (peer, last)| {
+                let keep = now.duration_since(*last) <= expiry;
+                if !keep {
+                    gone.push((*peer, *addr));
+                }
+                keep
+            });
+            for (peer, addr) in gone {
+                let why = format!("{addr} quiet for {} s", expiry.as_secs_f64());
+                if !events(Event::Down { peer, why }) {
+                    return;
+                }
             }
         }
         let (n, from) = match received {

@@ -641,10 +641,13 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R,
         }
         let mut to: LinkMask = 0;
         let age = now_us.saturating_sub(rx_us);
-        for (i, link) in self.links.iter_mut().enumerate() {
-            if candidates & (1 << i) == 0 {
+        let mut rest = candidates;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let Some(link) = self.links.get_mut(i) else {
                 continue;
-            }
+            };
             let config = &link.config;
             if !config
                 .outbound
