@@ -143,9 +143,14 @@ fn start_mavlink_routerd(ports: &[u16]) -> Option<Router> {
     }
     let path = dir.join("main.conf");
     std::fs::write(&path, conf).ok()?;
+    // `-d` with an empty folder: nothing from /etc/mavlink-router/config.d is read.
+    let confd = dir.join("conf.d");
+    std::fs::create_dir_all(&confd).ok()?;
     let child = Command::new(bin)
         .arg("-c")
         .arg(&path)
+        .arg("-d")
+        .arg(&confd)
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
