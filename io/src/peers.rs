@@ -105,9 +105,15 @@ impl FromStr for Endpoint {
         };
         let host_port = |rest: &str| -> Result<(String, u16), UriError> {
             let (host, port) = rest.rsplit_once(':').ok_or_else(|| bad("missing :PORT"))?;
-            let host = host.trim_start_matches('[').trim_end_matches(']');
+            let host = host
+                .strip_prefix('[')
+                .and_then(|h| h.strip_suffix(']'))
+                .unwrap_or(host);
             if host.is_empty() {
                 return Err(bad("missing host"));
+            }
+            if !is_host(host) {
+                return Err(bad(&format!("bad host {host:?}")));
             }
             let port = port
                 .parse::<u16>()
@@ -158,6 +164,15 @@ impl FromStr for Endpoint {
             other => return Err(bad(&format!("unknown scheme {other:?}"))),
         })
     }
+}
+
+/// Whether `host` can stand in a URI: a name or an address (IPv6 colons allowed), without
+/// spaces, control characters or URI punctuation.
+pub fn is_host(host: &str) -> bool {
+    !host.is_empty()
+        && !host
+            .chars()
+            .any(|c| c.is_whitespace() || c.is_control() || "/[]@?#&,".contains(c))
 }
 
 impl fmt::Display for Endpoint {

@@ -281,8 +281,10 @@ fn config_readers_survive_odd_text() {
         "[General]\nTcpServerPort=70000\n",
         "[UartEndpoint]\nDevice=/dev/x,9600\n",
         "\u{0}\u{ff}[",
-        // Found by fuzzing: an empty device.
+        // Found by fuzzing: an empty device, and a bracket in an address.
         "[UartEndpoint alpha]\nDevice = ",
+        "[UdpEndpoint gcs]\nMode = Normal\nAddress =2127.0.0.\u{0}]\nPort = 145\n",
+        "udpout://[::1]]:5",
     ] {
         scripts::check_config(text.as_bytes());
     }

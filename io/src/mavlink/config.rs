@@ -40,7 +40,7 @@ use ferrolink_runtime::mavlink::router::{ByteSet, Filter, IdSet, LinkConfig};
 use ferrolink_runtime::mavlink::signing::SecretKey;
 use serde::Deserialize;
 
-use crate::peers::Endpoint;
+use crate::peers::{is_host, Endpoint};
 
 /// An endpoint and how its links behave.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -363,6 +363,9 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
             "udpendpoint" => {
                 let address = match get("address") {
                     Some("") => return Err(error(format!("{at}: Address is empty"))),
+                    Some(a) if !is_host(a) => {
+                        return Err(error(format!("{at} Address = {a:?}: not a host")))
+                    }
                     Some(a) => a.to_owned(),
                     None => "0.0.0.0".to_owned(),
                 };
@@ -382,6 +385,9 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                     .filter(|a| !a.is_empty())
                     .ok_or_else(|| error(format!("{at}: Address is missing")))?
                     .to_owned();
+                if !is_host(&address) {
+                    return Err(error(format!("{at} Address = {address:?}: not a host")));
+                }
                 let _ = get("retrytimeout");
                 Some(Endpoint::TcpOut(address, port(get("port"))?))
             }
