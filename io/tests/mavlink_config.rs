@@ -129,6 +129,7 @@ fn main_conf_errors_say_where() {
     // Found by fuzzing: an empty value is no device or address either.
     insta::assert_snapshot!(err("[UartEndpoint a]\nDevice = \n"), @"[UartEndpoint a]: Device is missing");
     insta::assert_snapshot!(err("[UdpEndpoint a]\nAddress =\nPort = 1\n"), @"[UdpEndpoint a]: Address is empty");
+    insta::assert_snapshot!(err("[UartEndpoint a]\nDevice = /dev/ttyS1\nBaud = 0\n"), @r#"[UartEndpoint a] Baud = "0": not a baud rate"#);
     insta::assert_snapshot!(err("[UdpEndpoint a]\nAddress = 10.0.0.1]\nPort = 1\n"), @r#"[UdpEndpoint a] Address = "10.0.0.1]": not a host"#);
     insta::assert_snapshot!(err("[TcpEndpoint a]\nAddress = \nPort = 1\n"), @"[TcpEndpoint a]: Address is missing");
     insta::assert_snapshot!(err("[UdpEndpoint a\nPort = 1\n"), @r#"3:1: expecting "[Some(']')]" but found EOF."#);

@@ -353,7 +353,9 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                     .map(|b| {
                         b.trim()
                             .parse::<u32>()
-                            .map_err(|_| error(format!("{at} Baud = {b:?}: not a number")))
+                            .ok()
+                            .filter(|&b| b > 0)
+                            .ok_or_else(|| error(format!("{at} Baud = {b:?}: not a baud rate")))
                     })
                     .transpose()?
                     .unwrap_or(115_200);
