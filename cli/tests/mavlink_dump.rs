@@ -147,23 +147,32 @@ fn small_tlog(dir: &Path) -> PathBuf {
     path
 }
 
-#[test]
-fn stats_plot_and_csv() {
-    let dir = tempfile::tempdir().expect("scratch");
-    let log = small_tlog(dir.path());
-    let svg = dir.path().join("rates.svg");
+/// Runs `ferrolink mavlink ARGS...`, which must succeed, and returns what it printed.
+fn mavlink(args: &[&std::ffi::OsStr]) -> String {
     let out = Command::new(ferrolink())
-        .args(["mavlink", "stats", "--plot"])
-        .arg(&svg)
-        .arg(&log)
+        .arg("mavlink")
+        .args(args)
         .output()
-        .expect("run");
+        .expect("run ferrolink");
     assert!(
         out.status.success(),
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let text = String::from_utf8_lossy(&out.stdout);
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+#[test]
+fn stats_plot_and_csv() {
+    let dir = tempfile::tempdir().expect("scratch");
+    let log = small_tlog(dir.path());
+    let svg = dir.path().join("rates.svg");
+    let text = mavlink(&[
+        "stats".as_ref(),
+        "--plot".as_ref(),
+        svg.as_os_str(),
+        log.as_os_str(),
+    ]);
     let row = |source: &str| {
         text.lines()
             .find(|l| l.starts_with(source))
@@ -183,17 +192,12 @@ fn stats_plot_and_csv() {
     assert!(plot.starts_with("<svg") && plot.contains("HEARTBEAT"));
 
     let csv = dir.path().join("csv");
-    let out = Command::new(ferrolink())
-        .args(["mavlink", "dump", "--csv"])
-        .arg(&csv)
-        .arg(&log)
-        .output()
-        .expect("run");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    mavlink(&[
+        "dump".as_ref(),
+        "--csv".as_ref(),
+        csv.as_os_str(),
+        log.as_os_str(),
+    ]);
     let heartbeats = std::fs::read_to_string(csv.join("HEARTBEAT.csv")).expect("csv");
     let mut lines = heartbeats.lines();
     assert!(lines
