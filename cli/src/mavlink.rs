@@ -8,9 +8,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use clap::Subcommand;
+use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::{self, EndpointConfig, FileConfig};
 use ferrolink_io::mavlink::{router, tlog};
-use ferrolink_io::peers::Endpoint;
 
 use ferrolink_codegen::traffic::{CsvExport, RowMeta};
 

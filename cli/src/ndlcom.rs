@@ -77,10 +77,10 @@ pub enum Command {
 pub struct Links {
     /// An interface URI (repeat for more).
     #[arg(short = 'u', long = "uri", value_name = "URI", required = true)]
-    uris: Vec<ferrolink_io::Endpoint>,
+    uris: Vec<ferrolink_io::Interface>,
     /// A mirror interface: it gets every frame and teaches the routing table nothing.
     #[arg(short = 'm', long = "mirror", value_name = "URI")]
-    mirrors: Vec<ferrolink_io::Endpoint>,
+    mirrors: Vec<ferrolink_io::Interface>,
     /// Print statistics, routes and missed packets every this many seconds.
     #[arg(long, value_name = "SECONDS")]
     stats: Option<f64>,

@@ -179,3 +179,62 @@ fn two_bridges_over_a_pty() {
     assert_eq!(replies, stat(&b, 0, "tx_frames"));
     assert_eq!(stat(&a, 0, "rx_frames"), stat(&b, 0, "tx_frames"));
 }
+
+#[test]
+fn a_tcp_server_interface_serves_every_client() {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port");
+    let server_uri = format!("tcp-listen://127.0.0.1:{port}");
+    // H (id 9) listens; B (id 2) and then A (id 1) connect as clients; A pings B through H.
+    let h = bridge(&[
+        s("-u"),
+        server_uri.clone(),
+        s("-i"),
+        s(9),
+        s("--run-for"),
+        s(3.0),
+    ]);
+    sleep(Duration::from_millis(300));
+    let client = |id: u64, run_for: f64, ping: &[String]| {
+        let mut args = vec![
+            s("-u"),
+            format!("tcp://127.0.0.1:{port}"),
+            s("-i"),
+            s(id),
+            s("--run-for"),
+            s(run_for),
+        ];
+        args.extend_from_slice(ping);
+        bridge(&args)
+    };
+    let b = client(2, 2.4, &[]);
+    sleep(Duration::from_millis(300));
+    let a = client(1, 1.5, &[s("--ping"), s(2), s("--ping-every"), s(0.1)]);
+    let (a, b, h) = (events(a), events(b), events(h));
+
+    let replies = a.iter().filter(|e| e["event"] == "ping_reply").count() as u64;
+    assert!(replies >= 8, "{replies} replies");
+    assert_eq!(replies, stat(&a, 0, "tx_frames"));
+    assert_eq!(stat(&b, 0, "rx_frames"), replies);
+
+    // H served both clients, each as an interface of its own, and learned who is where.
+    let ups: Vec<&Value> = h.iter().filter(|e| e["event"] == "link_up").collect();
+    assert_eq!(ups.len(), 2, "{ups:?}");
+    assert_eq!(ups[0]["interface"], server_uri.as_str());
+    assert_eq!(ups[0]["index"], 0);
+    let second = ups[1]["interface"].as_str().expect("a name");
+    assert!(
+        second.starts_with(&format!("{server_uri} <- 127.0.0.1:")),
+        "{second}"
+    );
+    assert_eq!(ups[1]["index"], 1);
+    assert_eq!(stat(&h, 0, "rx_frames"), stat(&b, 0, "tx_frames"));
+    assert_eq!(stat(&h, 1, "rx_frames"), stat(&a, 0, "tx_frames"));
+    // A left first, then B: both reported, and the routes through them forgotten.
+    let downs: Vec<&Value> = h.iter().filter(|e| e["event"] == "link_down").collect();
+    assert_eq!(downs.len(), 2, "{downs:?}");
+    assert_eq!(downs[0]["interface"], second);
+    assert_eq!(last(&h, "routes")["routes"], serde_json::json!([]));
+}

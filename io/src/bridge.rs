@@ -1,16 +1,24 @@
 //! The NDLCom bridge program: the runtime's [`Bridge`] over real links.
 //!
-//! One reader thread per link feeds a channel; the main loop feeds the bridge, answers pings
-//! for its own ids, tracks missed packets, writes the log, drains the output queues into the
-//! links and prints what was asked for. `ferrolink ndlcom bridge` and `ferrolink ndlcom log` are
+//! The interfaces are opened on the [`link`] layer, whose threads feed a channel; the main loop
+//! feeds the bridge, answers pings for its own ids, tracks missed packets, writes the log, drains
+//! the output queues into the links and prints what was asked for.
+//!
+//! Interface `i` is the `i`-th URI given (mirrors after the interfaces). A `tcp-listen://`
+//! interface serves any number of clients: its first client is interface `i`, every further one
+//! an interface of its own (numbered after the URIs, named `URI <- ADDRESS`, with the URI's mirror
+//! setting), as long as [`MAX_INTERFACES`] allows; a client leaving frees its interface and the
+//! routes learned through it. Serial devices that fail or are unplugged are reopened every
+//! second, and TCP clients reconnect; a link coming and going is reported (`link_up`,
+//! `link_down`). `ferrolink ndlcom bridge` and `ferrolink ndlcom log` are
 //! thin wrappers around [`run`].
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{self, BufRead, BufWriter, Write};
 use std::path::PathBuf;
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc};
 use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -21,7 +29,8 @@ use ferrolink_runtime::ndlcom::{self, payload, storage_len, Frame, Header, BROAD
 use ferrolink_runtime::wire;
 use serde_json::json;
 
-use crate::{Endpoint, Link, LinkWriter};
+use crate::link::{self, PeerId, Sender};
+use crate::Interface;
 
 /// The most interfaces (mirrors included) one bridge process serves.
 pub const MAX_INTERFACES: usize = 8;
@@ -46,9 +55,9 @@ pub enum Print {
 #[derive(Debug, Clone, Default)]
 pub struct Config {
     /// The interfaces, in order (interface 0 first).
-    pub interfaces: Vec<Endpoint>,
+    pub interfaces: Vec<Interface>,
     /// Mirror interfaces: they get every frame and teach nothing.
-    pub mirrors: Vec<Endpoint>,
+    pub mirrors: Vec<Interface>,
     /// Own ids: frames to them are answered (pings) and not forwarded.
     pub own_ids: Vec<u8>,
     /// Forward cut-through between all interface pairs instead of store & forward.
@@ -77,17 +86,38 @@ pub struct Config {
 }
 
 enum Event {
-    Rx(usize, Vec<u8>),
-    LinkDown(usize, io::Error),
+    Up {
+        endpoint: usize,
+        peer: PeerId,
+        name: String,
+        sender: Sender,
+    },
+    Rx(PeerId, Vec<u8>),
+    Down(PeerId, String),
     Command(String),
+}
+
+/// One interface of the bridge.
+struct Slot {
+    /// The URI, or `URI <- ADDRESS` for a further client of a server.
+    name: String,
+    /// The link to write to while it is up.
+    sender: Option<Sender>,
+    /// Whether a link was ever up here: until then output waits in the queue (a serial device
+    /// or TCP server still being opened), afterwards it is dropped while no link is up.
+    was_up: bool,
+    /// Output that could not be written (no link, or the write failed).
+    tx_errors: u64,
 }
 
 struct Program {
     config: Config,
-    names: Vec<String>,
+    /// The interface URIs (mirrors last); slot `i < uris.len()` belongs to URI `i`.
+    uris: Vec<String>,
+    slots: Vec<Slot>,
+    /// The slot of every peer that is up.
+    peers: HashMap<PeerId, usize>,
     node: Box<Node>,
-    writers: Vec<Box<dyn LinkWriter>>,
-    tx_errors: Vec<u64>,
     missed: Box<MissTracker<256>>,
     missed_pairs: BTreeMap<(u8, u8), u64>,
     log: Option<BufWriter<File>>,
@@ -104,9 +134,9 @@ fn unix_us() -> u64 {
         .map_or(0, |d| d.as_micros() as u64)
 }
 
-/// Runs the bridge until `run_for` elapses, `q` is read, or every link is gone.
+/// Runs the bridge until `run_for` elapses or `q` is read.
 pub fn run(config: Config) -> io::Result<()> {
-    let endpoints: Vec<&Endpoint> = config.interfaces.iter().chain(&config.mirrors).collect();
+    let endpoints: Vec<&Interface> = config.interfaces.iter().chain(&config.mirrors).collect();
     if endpoints.is_empty() || endpoints.len() > MAX_INTERFACES {
         return Err(io::Error::new(
             io::ErrorKind::InvalidInput,
@@ -125,41 +155,41 @@ pub fn run(config: Config) -> io::Result<()> {
         router.add_own_id(id);
     }
     let (tx, rx) = mpsc::channel();
-    let mut names = Vec::new();
-    let mut writers = Vec::new();
+    let mut handles = Vec::new();
     for (i, endpoint) in endpoints.iter().enumerate() {
-        let link = Link::open(endpoint)?;
-        names.push(link.name().to_owned());
         for &id in &endpoint.routes {
             node.router_mut().seed(id, i);
         }
         if i >= config.interfaces.len() {
             node.router_mut().set_mirror(i, true);
         }
-        let (mut reader, writer) = link.split();
-        writers.push(writer);
         let tx = tx.clone();
-        thread::spawn(move || {
-            let mut buf = vec![0u8; 64 * 1024];
-            loop {
-                match reader.read(&mut buf, Duration::from_millis(100)) {
-                    Ok(0) => {}
-                    Ok(n) => {
-                        if tx.send(Event::Rx(i, buf[..n].to_vec())).is_err() {
-                            return;
-                        }
-                    }
-                    Err(e) => {
-                        let _ = tx.send(Event::LinkDown(i, e));
-                        return;
-                    }
-                }
-            }
+        let sink: link::Sink = Arc::new(move |event| {
+            let event = match event {
+                link::Event::Up {
+                    endpoint,
+                    peer,
+                    name,
+                    sender,
+                } => Event::Up {
+                    endpoint,
+                    peer,
+                    name,
+                    sender,
+                },
+                link::Event::Rx { peer, bytes, .. } => Event::Rx(peer, bytes.to_vec()),
+                link::Event::Down { peer, why } => Event::Down(peer, why),
+            };
+            tx.send(event).is_ok()
         });
+        let uri = endpoint.to_string();
+        let handle = link::open(i, &endpoint.link(), link::Options::default(), sink)
+            .map_err(|e| io::Error::new(e.kind(), format!("{uri}: {e}")))?;
+        handles.push(handle);
     }
     if config.cut_through {
-        for from in 0..names.len() {
-            for to in 0..names.len() {
+        for from in 0..MAX_INTERFACES {
+            for to in 0..MAX_INTERFACES {
                 if from != to {
                     node.set_mode(from, to, Mode::CutThrough);
                 }
@@ -184,11 +214,20 @@ pub fn run(config: Config) -> io::Result<()> {
         )),
         None => None,
     };
+    let uris: Vec<String> = endpoints.iter().map(ToString::to_string).collect();
     let mut program = Program {
-        tx_errors: vec![0; names.len()],
-        names,
+        slots: uris
+            .iter()
+            .map(|name| Slot {
+                name: name.clone(),
+                sender: None,
+                was_up: false,
+                tx_errors: 0,
+            })
+            .collect(),
+        uris,
+        peers: HashMap::new(),
         node,
-        writers,
         missed: Box::default(),
         missed_pairs: BTreeMap::new(),
         log,
@@ -199,7 +238,13 @@ pub fn run(config: Config) -> io::Result<()> {
         replies: 0,
         config,
     };
-    program.main_loop(rx)
+    // Links that are up at once (UDP, pty) are taken in before anything is sent.
+    while let Ok(event) = rx.try_recv() {
+        program.event(event)?;
+    }
+    let result = program.main_loop(rx);
+    drop(handles);
+    result
 }
 
 impl Program {
@@ -211,10 +256,9 @@ impl Program {
         let mut next_stats = self.config.stats_every.map(|d| self.start + d);
         let mut next_ping = self.config.ping.map(|_| self.start);
         let deadline = self.config.run_for.map(|d| self.start + d);
-        let mut links_up = self.names.len();
         loop {
             let now = Instant::now();
-            if deadline.is_some_and(|d| now >= d) || links_up == 0 {
+            if deadline.is_some_and(|d| now >= d) {
                 break;
             }
             let mut wake = now + Duration::from_millis(5);
@@ -222,18 +266,8 @@ impl Program {
                 wake = wake.min(t);
             }
             match rx.recv_timeout(wake.saturating_duration_since(now)) {
-                Ok(Event::Rx(i, bytes)) => self.receive(i, &bytes)?,
-                Ok(Event::LinkDown(i, e)) => {
-                    links_up -= 1;
-                    self.node.link_down(i);
-                    let name = self.names.get(i).cloned().unwrap_or_default();
-                    self.report(
-                        json!({"event": "link_down", "interface": name, "error": e.to_string()}),
-                        format!("link down: {name}: {e}"),
-                    )?;
-                }
-                Ok(Event::Command(line)) => {
-                    if !self.command(line.trim())? {
+                Ok(event) => {
+                    if !self.event(event)? {
                         break;
                     }
                 }
@@ -267,6 +301,90 @@ impl Program {
         self.out.flush()
     }
 
+    /// Handles one event; `false` ends the program.
+    fn event(&mut self, event: Event) -> io::Result<bool> {
+        match event {
+            Event::Up {
+                endpoint,
+                peer,
+                name,
+                sender,
+            } => self.link_up(endpoint, peer, &name, sender)?,
+            Event::Rx(peer, bytes) => {
+                if let Some(&slot) = self.peers.get(&peer) {
+                    self.receive(slot, &bytes)?;
+                }
+            }
+            Event::Down(peer, why) => {
+                if let Some(slot) = self.peers.remove(&peer) {
+                    self.slots[slot].sender = None;
+                    self.node.link_down(slot);
+                    let name = self.slots[slot].name.clone();
+                    self.report(
+                        json!({"event": "link_down", "interface": name, "error": why}),
+                        format!("link down: {name}: {why}"),
+                    )?;
+                }
+            }
+            Event::Command(line) => return self.command(line.trim()),
+        }
+        Ok(true)
+    }
+
+    /// Gives a peer that came up its interface: the URI's own if it is free, else a further
+    /// one (a server's second client).
+    fn link_up(
+        &mut self,
+        endpoint: usize,
+        peer: PeerId,
+        name: &str,
+        sender: Sender,
+    ) -> io::Result<()> {
+        let uri = self.uris[endpoint].clone();
+        let slot = if self.slots[endpoint].sender.is_none() {
+            self.slots[endpoint].name = uri;
+            endpoint
+        } else {
+            let address = name.rsplit_once(" <- ").map_or(name, |(_, a)| a);
+            let name = format!("{uri} <- {address}");
+            let free =
+                (self.uris.len()..self.slots.len()).find(|&i| self.slots[i].sender.is_none());
+            match free {
+                Some(i) => {
+                    self.slots[i].name = name;
+                    i
+                }
+                None if self.slots.len() < MAX_INTERFACES => {
+                    self.slots.push(Slot {
+                        name,
+                        sender: None,
+                        was_up: false,
+                        tx_errors: 0,
+                    });
+                    self.slots.len() - 1
+                }
+                None => {
+                    self.report(
+                        json!({"event": "link_refused", "interface": name,
+                               "error": format!("all {MAX_INTERFACES} interfaces are in use")}),
+                        format!("link refused: {name}: all {MAX_INTERFACES} interfaces are in use"),
+                    )?;
+                    return Ok(());
+                }
+            }
+        };
+        let mirror = endpoint >= self.config.interfaces.len();
+        self.node.router_mut().set_mirror(slot, mirror);
+        self.slots[slot].sender = Some(sender);
+        self.slots[slot].was_up = true;
+        self.peers.insert(peer, slot);
+        let name = self.slots[slot].name.clone();
+        self.report(
+            json!({"event": "link_up", "interface": name, "index": slot}),
+            format!("link up: {name} (interface {slot})"),
+        )
+    }
+
     fn receive(&mut self, i: usize, bytes: &[u8]) -> io::Result<()> {
         let now_us = self.now_us();
         let mut frames: Vec<(Header, Vec<u8>)> = Vec::new();
@@ -288,7 +406,11 @@ impl Program {
                 .or_default() += u64::from(n);
         }
         let own = header.receiver == BROADCAST || self.node.router().is_own(header.receiver);
-        let name = self.names.get(i).cloned().unwrap_or_default();
+        let name = self
+            .slots
+            .get(i)
+            .map(|s| s.name.clone())
+            .unwrap_or_default();
         if let Some(log) = &mut self.log {
             let mut buf = [0u8; ndlcom::MAX_FRAME_LEN];
             if let Ok(n) = ndlcom::encode(header, payload, &mut buf) {
@@ -374,16 +496,18 @@ impl Program {
 
     fn flush_outputs(&mut self) {
         let mut buf = [0u8; QUEUE_BYTES];
-        for (i, writer) in self.writers.iter_mut().enumerate() {
+        for (i, slot) in self.slots.iter_mut().enumerate() {
+            if !slot.was_up {
+                continue;
+            }
             loop {
                 let n = self.node.transmit(i, &mut buf);
                 if n == 0 {
                     break;
                 }
-                if writer.write_all(&buf[..n]).is_err() {
-                    if let Some(e) = self.tx_errors.get_mut(i) {
-                        *e += 1;
-                    }
+                let sent = slot.sender.as_ref().map(|s| s.send(&buf[..n]));
+                if !matches!(sent, Some(Ok(()))) {
+                    slot.tx_errors += 1;
                 }
             }
         }
@@ -422,10 +546,10 @@ impl Program {
 
     fn print_stats(&mut self) -> io::Result<()> {
         let rows: Vec<(String, IfaceStats, u64)> = self
-            .names
+            .slots
             .iter()
             .enumerate()
-            .map(|(i, n)| (n.clone(), self.node.stats(i), self.tx_errors[i]))
+            .map(|(i, slot)| (slot.name.clone(), self.node.stats(i), slot.tx_errors))
             .collect();
         let json = json!({"event": "stats", "t_us": self.now_us(), "pings_sent": self.ping_seq, "pings_answered": self.replies,
             "interfaces": rows.iter().map(|(name, s, e)| json!({
@@ -464,13 +588,13 @@ impl Program {
     fn print_routes(&mut self) -> io::Result<()> {
         let routes: Vec<(u8, usize)> = self.node.router().routes().collect();
         let json = json!({"event": "routes", "routes": routes.iter().map(|(id, i)| json!({
-            "id": id, "interface": self.names.get(*i)})).collect::<Vec<_>>()});
+            "id": id, "interface": self.slots.get(*i).map(|s| &s.name)})).collect::<Vec<_>>()});
         let mut text = String::from("routes:");
         for (id, i) in &routes {
             let _ = write!(
                 text,
                 "\n  {id:>3} -> {}",
-                self.names.get(*i).map_or("?", |n| n)
+                self.slots.get(*i).map_or("?", |s| &s.name)
             );
         }
         if routes.is_empty() {

@@ -97,7 +97,7 @@ impl LinkWriter for TtyWriter {
 /// master. Both ends stay open for the lifetime of the link.
 #[cfg(unix)]
 pub(crate) fn open_pty(name: &str) -> io::Result<Halves> {
-    use crate::PTY_WRITE_TIMEOUT;
+    use crate::WRITE_TIMEOUT;
     use std::path::Path;
 
     // `TTYPort::pair` puts the slave in raw mode (`cfmakeraw`: no echo, no line editing, no
@@ -129,7 +129,7 @@ pub(crate) fn open_pty(name: &str) -> io::Result<Halves> {
         link: link.to_owned(),
         target,
     });
-    master.set_timeout(PTY_WRITE_TIMEOUT)?;
+    master.set_timeout(WRITE_TIMEOUT)?;
     halves(master, Some(keep))
 }
 

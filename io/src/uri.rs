@@ -1,4 +1,47 @@
-//! Interface URIs: parsing ([`Endpoint::from_str`]) and the canonical form ([`fmt::Display`]).
+//! NDLCom interface URIs: parsing ([`Interface::from_str`]), the canonical form
+//! ([`fmt::Display`]) and the [`link`](crate::link) endpoint each one opens ([`Interface::link`]).
+//!
+//! An NDLCom interface is named by a URI, the same forms the C reference implementation takes.
+//!
+//! | URI | opens | defaults |
+//! |-----|-------|----------|
+//! | `serial://PATH[:BAUD]` | serial device, 8N1, no flow control, locked while open; reopened every second after it fails or is unplugged | baud 921600 |
+//! | `udp://HOST[:IN_PORT][:OUT_PORT]` | UDP socket bound to `IN_PORT` on the unspecified address of `HOST`'s family, sending to `HOST:OUT_PORT`, reading datagrams from any sender | in 34000, out 34001 |
+//! | `tcp://HOST[:PORT]` | TCP client that reconnects (backoff from 50 ms doubling to 1 s) | port 34000 |
+//! | `tcp-listen://[HOST]:PORT` | TCP server; every client is an interface of its own | host 0.0.0.0 |
+//! | `pty://NAME` | pseudo-terminal in raw mode; a symlink at `NAME` points to its slave device | — |
+//!
+//! Any URI may end with `&ID,ID,...`: NDLCom device ids (decimal or `0x` hex) that sit behind
+//! the interface, for the router to pre-seed ([`Interface::routes`]). Examples:
+//! `serial:///dev/ttyUSB0:115200`, `udp://127.0.0.1:34000:34001&3,4`, `udp://[::1]:5000:5001`,
+//! `tcp-listen://:34000`, `pty:///tmp/ndlcom0&0x10`.
+//!
+//! ```
+//! use ferrolink_io::{link, Interface, Transport};
+//!
+//! let interface: Interface = "udp://127.0.0.1&3,0x04".parse()?;
+//! assert_eq!(
+//!     interface.transport,
+//!     Transport::Udp { host: "127.0.0.1".into(), in_port: 34000, out_port: 34001 }
+//! );
+//! assert_eq!(interface.routes, [3, 4]);
+//! assert_eq!(interface.to_string(), "udp://127.0.0.1:34000:34001&3,4");
+//! assert_eq!(interface.link(), link::Endpoint::Udp("127.0.0.1".into(), 34000, 34001));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Details per transport:
+//! - **serial**: a trailing `:DIGITS` is the baud rate, any other `:` belongs to the path, so
+//!   `/dev/serial/by-path/...:1.0-port0` works as is. The device is locked against other
+//!   openers (they get "busy") while it is open.
+//! - **udp**: each write is one datagram, each read one datagram. An empty port field keeps
+//!   the default: `udp://host::5001`.
+//! - **tcp** and **tcp-listen**: `TCP_NODELAY` is set; a client that does not read for 100 ms
+//!   loses the write.
+//! - **pty**: both ends of the pair stay open, so reads never fail because nobody is attached.
+//!   Another program attaches through the symlink (`picocom NAME`, or `serial://NAME` in a
+//!   second bridge). An existing symlink at `NAME` (left over from an earlier run) is replaced;
+//!   any other file there is an error. The symlink is removed when the endpoint closes.
 
 use std::fmt;
 use std::str::FromStr;
@@ -21,7 +64,7 @@ const FORMS: &str = "accepted forms: serial://PATH[:BAUD], udp://HOST[:IN_PORT][
 
 /// A parsed interface URI plus the routes to pre-seed.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Endpoint {
+pub struct Interface {
     /// How the link is opened.
     pub transport: Transport,
     /// NDLCom device ids known to sit behind this interface, from the `&id,id,...` suffix.
@@ -48,14 +91,14 @@ pub enum Transport {
         /// Peer port to send to.
         out_port: u16,
     },
-    /// `tcp://HOST[:PORT]`: a TCP client connection.
+    /// `tcp://HOST[:PORT]`: a TCP client that reconnects.
     Tcp {
         /// Server host name or address (IPv6 without brackets).
         host: String,
         /// Server port.
         port: u16,
     },
-    /// `tcp-listen://[HOST]:PORT`: a TCP server whose most recent client is the peer.
+    /// `tcp-listen://[HOST]:PORT`: a TCP server; every client is an interface of its own.
     TcpListen {
         /// Local address to listen on (IPv6 without brackets).
         host: String,
@@ -97,7 +140,7 @@ impl fmt::Display for UriError {
 
 impl std::error::Error for UriError {}
 
-impl FromStr for Endpoint {
+impl FromStr for Interface {
     type Err = UriError;
 
     fn from_str(uri: &str) -> Result<Self, UriError> {
@@ -171,7 +214,7 @@ impl FromStr for Endpoint {
             )))
             }
         };
-        Ok(Endpoint { transport, routes })
+        Ok(Interface { transport, routes })
     }
 }
 
@@ -342,7 +385,25 @@ impl fmt::Display for Transport {
     }
 }
 
-impl fmt::Display for Endpoint {
+impl Interface {
+    /// The link-layer endpoint that opens this interface.
+    pub fn link(&self) -> crate::link::Endpoint {
+        use crate::link::Endpoint;
+        match &self.transport {
+            Transport::Serial { path, baud } => Endpoint::Serial(path.clone(), *baud),
+            Transport::Udp {
+                host,
+                in_port,
+                out_port,
+            } => Endpoint::Udp(host.clone(), *in_port, *out_port),
+            Transport::Tcp { host, port } => Endpoint::TcpOut(host.clone(), *port),
+            Transport::TcpListen { host, port } => Endpoint::TcpIn(host.clone(), *port),
+            Transport::Pty { name } => Endpoint::Pty(name.clone()),
+        }
+    }
+}
+
+impl fmt::Display for Interface {
     /// The canonical URI with every default spelled out, routes in decimal; it parses back to
     /// the same value.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

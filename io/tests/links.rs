@@ -1,26 +1,106 @@
-//! The transports for real: UDP and TCP over loopback, pseudo-terminals, and the serial code
-//! path on the slave side of a pty pair.
+//! The link layer for real, opened from NDLCom interface URIs: UDP and TCP over loopback,
+//! pseudo-terminals, and the serial code path on the slave side of a pty pair.
 
 use std::io;
-use std::net::{TcpListener, UdpSocket};
+use std::net::{TcpListener, TcpStream, UdpSocket};
+use std::sync::{mpsc, Arc};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use ferrolink_io::{Endpoint, Link, LinkReader, LinkWriter};
+use ferrolink_io::link::{self, PeerId, Sender};
+use ferrolink_io::Interface;
 
 /// Longest any single step of a test may take before it counts as hung.
 const PATIENCE: Duration = Duration::from_secs(5);
 
-fn open(uri: &str) -> Link {
-    let endpoint: Endpoint = uri.parse().unwrap_or_else(|e| panic!("{uri}: {e}"));
-    Link::open(&endpoint).unwrap_or_else(|e| panic!("opening {uri}: {e}"))
+/// What an endpoint reported, owned.
+#[derive(Debug)]
+enum Ev {
+    Up(PeerId, String, Sender),
+    Rx(PeerId, Vec<u8>),
+    Down(PeerId, String),
+}
+
+/// An open endpoint and the events it reported.
+struct Opened {
+    handle: link::Handle,
+    events: mpsc::Receiver<Ev>,
+}
+
+fn try_open(uri: &str) -> io::Result<Opened> {
+    let interface: Interface = uri.parse().unwrap_or_else(|e| panic!("{uri}: {e}"));
+    let (tx, events) = mpsc::channel();
+    let sink: link::Sink = Arc::new(move |event| {
+        let ev = match event {
+            link::Event::Up {
+                peer, name, sender, ..
+            } => Ev::Up(peer, name, sender),
+            link::Event::Rx { peer, bytes, .. } => Ev::Rx(peer, bytes.to_vec()),
+            link::Event::Down { peer, why } => Ev::Down(peer, why),
+        };
+        tx.send(ev).is_ok()
+    });
+    let handle = link::open(0, &interface.link(), link::Options::default(), sink)?;
+    Ok(Opened { handle, events })
+}
+
+fn open(uri: &str) -> Opened {
+    try_open(uri).unwrap_or_else(|e| panic!("opening {uri}: {e}"))
 }
 
 fn open_err(uri: &str) -> io::Error {
-    let endpoint: Endpoint = uri.parse().unwrap_or_else(|e| panic!("{uri}: {e}"));
-    match Link::open(&endpoint) {
-        Ok(link) => panic!("{uri} should not open, got {link:?}"),
+    match try_open(uri) {
+        Ok(_) => panic!("{uri} should not open"),
         Err(e) => e,
+    }
+}
+
+impl Opened {
+    fn next(&self) -> Ev {
+        self.events
+            .recv_timeout(PATIENCE)
+            .expect("no event in time")
+    }
+
+    /// The next event, which must be a peer coming up.
+    fn up(&self) -> (PeerId, String, Sender) {
+        match self.next() {
+            Ev::Up(peer, name, sender) => (peer, name, sender),
+            other => panic!("expected a peer to come up, got {other:?}"),
+        }
+    }
+
+    /// The next event, which must be a peer going down; returns why.
+    fn down(&self, expected: PeerId) -> String {
+        match self.next() {
+            Ev::Down(peer, why) if peer == expected => why,
+            other => panic!("expected peer {expected} to go down, got {other:?}"),
+        }
+    }
+
+    /// The next read, which must come from `expected`.
+    fn datagram(&self, expected: PeerId) -> Vec<u8> {
+        match self.next() {
+            Ev::Rx(peer, bytes) if peer == expected => bytes,
+            other => panic!("expected bytes from peer {expected}, got {other:?}"),
+        }
+    }
+
+    /// Reads from `peer` until exactly `n` bytes arrived.
+    fn read_exactly(&self, peer: PeerId, n: usize) -> Vec<u8> {
+        let mut got = Vec::new();
+        while got.len() < n {
+            got.extend(self.datagram(peer));
+        }
+        assert_eq!(got.len(), n, "more bytes than expected arrived");
+        got
+    }
+
+    /// Asserts that nothing is reported within `wait`.
+    fn quiet(&self, wait: Duration) {
+        if let Ok(ev) = self.events.recv_timeout(wait) {
+            panic!("unexpected {ev:?}");
+        }
     }
 }
 
@@ -42,40 +122,6 @@ fn free_tcp_port() -> u16 {
         .port()
 }
 
-/// Reads until exactly `n` bytes arrived; panics if that takes longer than [`PATIENCE`] or the
-/// reader returns more (the peer sent something unexpected).
-fn read_exactly(reader: &mut dyn LinkReader, n: usize) -> Vec<u8> {
-    let deadline = Instant::now() + PATIENCE;
-    let mut got = Vec::new();
-    let mut buf = vec![0; 65536];
-    while got.len() < n {
-        assert!(
-            Instant::now() < deadline,
-            "only {} of {n} bytes arrived: {got:?}",
-            got.len()
-        );
-        let k = reader
-            .read(&mut buf, Duration::from_millis(100))
-            .expect("read failed");
-        got.extend_from_slice(&buf[..k]);
-    }
-    assert_eq!(got.len(), n, "more bytes than expected arrived");
-    got
-}
-
-/// Asserts that nothing arrives within `wait`, and that the read really waited that long.
-fn assert_quiet(reader: &mut dyn LinkReader, wait: Duration) {
-    let mut buf = [0; 256];
-    let start = Instant::now();
-    let n = reader.read(&mut buf, wait).expect("idle read failed");
-    assert_eq!(n, 0, "unexpected bytes {:?}", &buf[..n]);
-    let waited = start.elapsed();
-    assert!(
-        waited >= wait.mul_f32(0.9),
-        "read returned after {waited:?}, expected to wait {wait:?}"
-    );
-}
-
 /// Every byte value, with the ones a cooked terminal would eat or translate (CR, LF, ^C, ^D,
 /// ^S/^Q, DEL, the NDLCom flag 0x7E) repeated in a row.
 fn all_bytes() -> Vec<u8> {
@@ -85,71 +131,62 @@ fn all_bytes() -> Vec<u8> {
 }
 
 /// Writes on one side and checks the other receives exactly that.
-fn exchange(writer: &mut dyn LinkWriter, reader: &mut dyn LinkReader, bytes: &[u8]) {
-    writer.write_all(bytes).expect("write failed");
-    assert_eq!(read_exactly(reader, bytes.len()), bytes);
+fn exchange(from: &Sender, to: &Opened, peer: PeerId, bytes: &[u8]) {
+    from.send(bytes).expect("write failed");
+    assert_eq!(to.read_exactly(peer, bytes.len()), bytes);
 }
 
 // ---------------------------------------------------------------------------------------------
 // UDP
 
 #[test]
-fn udp_loopback() {
+fn udp_pair_loopback() {
     let (pa, pb) = free_udp_ports();
     let a = open(&format!("udp://127.0.0.1:{pa}:{pb}&3,4"));
     let b = open(&format!("udp://127.0.0.1:{pb}:{pa}"));
-    assert_eq!(a.name(), format!("udp://127.0.0.1:{pa}:{pb}&3,4"));
-    let (mut ar, mut aw) = a.split();
-    let (mut br, mut bw) = b.split();
+    // The one peer is up as soon as the endpoint is open, named by the URI.
+    let (pa_peer, name, aw) = a.up();
+    assert_eq!(name, format!("udp://127.0.0.1:{pa}:{pb}"));
+    let (pb_peer, _, bw) = b.up();
+    assert_eq!(a.handle.local_addr().map(|l| l.port()), Some(pa));
+    a.quiet(Duration::from_millis(100));
 
-    // Nothing pending: Ok(0) after the timeout, also with a zero timeout.
-    assert_quiet(&mut *ar, Duration::from_millis(100));
-    assert_eq!(ar.read(&mut [0; 16], Duration::ZERO).unwrap(), 0);
-
-    let mut buf = vec![0; 65536];
-    aw.write_all(b"hello").unwrap();
-    let n = br.read(&mut buf, PATIENCE).unwrap();
-    assert_eq!(&buf[..n], b"hello");
+    aw.send(b"hello").unwrap();
+    assert_eq!(b.datagram(pb_peer), b"hello");
 
     // Datagram boundaries are kept: one write, one read.
-    bw.write_all(&[1, 2, 3]).unwrap();
-    bw.write_all(&[4]).unwrap();
-    let n = ar.read(&mut buf, PATIENCE).unwrap();
-    assert_eq!(&buf[..n], [1, 2, 3]);
-    let n = ar.read(&mut buf, PATIENCE).unwrap();
-    assert_eq!(&buf[..n], [4]);
+    bw.send(&[1, 2, 3]).unwrap();
+    bw.send(&[4]).unwrap();
+    assert_eq!(a.datagram(pa_peer), [1, 2, 3]);
+    assert_eq!(a.datagram(pa_peer), [4]);
 
-    // A large datagram arrives whole, and empty writes send nothing.
+    // A large datagram arrives whole.
     let big: Vec<u8> = (0..60_000).map(|i| (i * 7) as u8).collect();
-    aw.write_all(&[]).unwrap();
-    aw.write_all(&big).unwrap();
-    let n = br.read(&mut buf, PATIENCE).unwrap();
-    assert_eq!(&buf[..n], big);
-    assert_quiet(&mut *br, Duration::from_millis(50));
+    aw.send(&big).unwrap();
+    assert_eq!(b.datagram(pb_peer), big);
+
+    // Datagrams from any sender are the one peer's.
+    let stranger = UdpSocket::bind("127.0.0.1:0").unwrap();
+    stranger.send_to(b"hi", ("127.0.0.1", pa)).unwrap();
+    assert_eq!(a.datagram(pa_peer), b"hi");
+    a.quiet(Duration::from_millis(50));
+    b.quiet(Duration::from_millis(50));
 }
 
 #[test]
-fn udp_halves_work_on_other_threads() {
+fn udp_senders_work_on_other_threads() {
     let (pa, pb) = free_udp_ports();
-    let (_ar, mut aw) = open(&format!("udp://localhost:{pa}:{pb}")).split();
-    let (mut br, _bw) = open(&format!("udp://127.0.0.1:{pb}:{pa}")).split();
-    let receiver = thread::spawn(move || {
-        let mut got = Vec::new();
-        let mut buf = [0; 64];
-        while got.len() < 10 {
-            let n = br.read(&mut buf, PATIENCE).unwrap();
-            assert!(n > 0, "timed out after {got:?}");
-            got.push(buf[..n].to_vec());
-        }
-        got
-    });
+    let a = open(&format!("udp://localhost:{pa}:{pb}"));
+    let b = open(&format!("udp://127.0.0.1:{pb}:{pa}"));
+    let (_, _, aw) = a.up();
+    let (peer, _, _) = b.up();
     let sender = thread::spawn(move || {
         for i in 0..10u8 {
-            aw.write_all(&[i; 5]).unwrap();
+            aw.send(&[i; 5]).unwrap();
         }
     });
     sender.join().unwrap();
-    let got = receiver.join().unwrap();
+    let got: Vec<Vec<u8>> = (0..10).map(|_| b.datagram(peer)).collect();
     assert_eq!(got, (0..10u8).map(|i| vec![i; 5]).collect::<Vec<_>>());
 }
 
@@ -164,10 +201,11 @@ fn udp_ipv6_loopback() {
         b.local_addr().unwrap().port(),
     );
     drop((a, b));
-    let (mut ar, mut aw) = open(&format!("udp://[::1]:{pa}:{pb}")).split();
-    let (mut br, mut bw) = open(&format!("udp://[::1]:{pb}:{pa}")).split();
-    exchange(&mut *aw, &mut *br, b"over six");
-    exchange(&mut *bw, &mut *ar, b"and back");
+    let a = open(&format!("udp://[::1]:{pa}:{pb}"));
+    let b = open(&format!("udp://[::1]:{pb}:{pa}"));
+    let ((ap, _, aw), (bp, _, bw)) = (a.up(), b.up());
+    exchange(&aw, &b, bp, b"over six");
+    exchange(&bw, &a, ap, b"and back");
 }
 
 #[test]
@@ -184,99 +222,84 @@ fn udp_port_in_use_is_an_error_naming_the_uri() {
 // TCP
 
 #[test]
-fn tcp_listen_and_client() {
+fn tcp_listen_serves_every_client() {
     let port = free_tcp_port();
     let server = open(&format!("tcp-listen://127.0.0.1:{port}"));
-    assert_eq!(server.name(), format!("tcp-listen://127.0.0.1:{port}"));
-    let (mut sr, mut sw) = server.split();
+    server.quiet(Duration::from_millis(100));
 
-    // No client yet: writes fail, reads wait and return nothing.
-    let err = sw.write_all(b"lost").unwrap_err();
-    assert_eq!(err.kind(), io::ErrorKind::NotConnected, "{err}");
-    assert_quiet(&mut *sr, Duration::from_millis(100));
+    let first = open(&format!("tcp://127.0.0.1:{port}"));
+    let (c1, c1_name, c1w) = first.up();
+    assert_eq!(c1_name, format!("tcpout://127.0.0.1:{port}"));
+    let (s1, s1_name, s1w) = server.up();
+    assert!(
+        s1_name.starts_with(&format!("tcpin://127.0.0.1:{port} <- 127.0.0.1:")),
+        "{s1_name}"
+    );
+    exchange(&c1w, &server, s1, b"from the client");
+    exchange(&s1w, &first, c1, b"from the server");
 
-    let (mut cr, mut cw) = open(&format!("tcp://127.0.0.1:{port}")).split();
-    exchange(&mut *cw, &mut *sr, b"from the client");
-    exchange(&mut *sw, &mut *cr, b"from the server");
-    assert_quiet(&mut *cr, Duration::from_millis(50));
+    // A second client is a peer of its own; the first one stays.
+    let second = open(&format!("tcp://127.0.0.1:{port}"));
+    let (c2, _, c2w) = second.up();
+    let (s2, _, s2w) = server.up();
+    assert_ne!(s1, s2);
+    exchange(&c2w, &server, s2, b"second client");
+    exchange(&s2w, &second, c2, b"to the second");
+    exchange(&s1w, &first, c1, b"still the first");
+    first.quiet(Duration::from_millis(50));
 
-    // A megabyte each way at once, on other threads.
+    // A megabyte each way at once with the first client, on other threads.
     let big: Vec<u8> = (0..1_000_000u32).map(|i| (i % 251) as u8).collect();
-    let expected = big.clone();
-    let server_side = thread::spawn(move || {
-        let sending = thread::spawn(move || sw.write_all(&big).map(|()| sw));
-        let got = read_exactly(&mut *sr, expected.len());
-        assert!(got == expected, "server received different bytes");
-        (sr, sending.join().unwrap().unwrap())
-    });
-    let big: Vec<u8> = (0..1_000_000u32).map(|i| (i % 251) as u8).collect();
-    cw.write_all(&big).unwrap();
-    assert!(read_exactly(&mut *cr, big.len()) == big);
-    let (mut sr, mut sw) = server_side.join().unwrap();
-
-    // A new client replaces the first, which is disconnected right away (before the server
-    // halves next touch the link).
-    let (mut cr2, mut cw2) = open(&format!("tcp://127.0.0.1:{port}")).split();
-    let deadline = Instant::now() + PATIENCE;
-    let err = loop {
-        match cr.read(&mut [0; 16], Duration::from_millis(100)) {
-            Ok(0) => assert!(Instant::now() < deadline, "first client not disconnected"),
-            Ok(n) => panic!("first client got {n} bytes"),
-            Err(e) => break e,
-        }
+    let sending = {
+        let (big, s1w) = (big.clone(), s1w.clone());
+        thread::spawn(move || s1w.send(&big))
     };
-    assert_eq!(err.kind(), io::ErrorKind::UnexpectedEof, "{err}");
-    exchange(&mut *cw2, &mut *sr, b"second client");
-    exchange(&mut *sw, &mut *cr2, b"to the second");
+    c1w.send(&big).unwrap();
+    assert!(server.read_exactly(s1, big.len()) == big);
+    assert!(first.read_exactly(c1, big.len()) == big);
+    sending.join().unwrap().unwrap();
 
-    // The client leaving is no error for the server; writes then fail until the next one.
-    drop((cr2, cw2));
-    assert_quiet(&mut *sr, Duration::from_millis(200));
-    let err = sw.write_all(b"lost").unwrap_err();
-    assert_eq!(err.kind(), io::ErrorKind::NotConnected, "{err}");
+    // The second client leaving takes only its peer down.
+    drop((second, c2w));
+    let why = server.down(s2);
+    assert!(why.contains("closed"), "{why}");
+    exchange(&c1w, &server, s1, b"first again");
 
-    // A third client is served again.
-    let (mut cr3, mut cw3) = open(&format!("tcp://127.0.0.1:{port}")).split();
-    exchange(&mut *cw3, &mut *sr, b"third");
-    exchange(&mut *sw, &mut *cr3, b"hello third");
-
-    // The server going away ends the client link, and frees the port.
-    drop((sr, sw));
-    let err = cr3
-        .read(&mut [0; 16], PATIENCE)
-        .expect_err("the server is gone");
-    assert_eq!(err.kind(), io::ErrorKind::UnexpectedEof, "{err}");
-    let deadline = Instant::now() + PATIENCE;
-    while TcpListener::bind(("127.0.0.1", port)).is_err() {
-        assert!(Instant::now() < deadline, "the listener was not closed");
-        thread::sleep(Duration::from_millis(10));
-    }
+    // The server going away takes the client's peer down; it is not gone for good (see
+    // `tcp_client_reconnects`).
+    drop((server, s1w, s2w));
+    first.down(c1);
 }
 
 #[test]
-fn tcp_listen_read_waits_for_a_client() {
+fn tcp_client_reconnects() {
     let port = free_tcp_port();
-    let (mut sr, _sw) = open(&format!("tcp-listen://:{port}")).split();
-    let client = thread::spawn(move || {
-        thread::sleep(Duration::from_millis(200));
-        let (_cr, mut cw) = open(&format!("tcp://localhost:{port}")).split();
-        cw.write_all(b"late").unwrap();
-        thread::sleep(Duration::from_millis(500));
-    });
-    // One read call spans the wait for the client and for its bytes.
-    let mut buf = [0; 16];
-    let n = sr.read(&mut buf, PATIENCE).unwrap();
-    assert_eq!(&buf[..n], b"late");
-    client.join().unwrap();
-}
+    // Nothing listens yet: opening is no error, the client keeps trying.
+    let client = open(&format!("tcp://127.0.0.1:{port}"));
+    client.quiet(Duration::from_millis(200));
+    let accept = |listener: &TcpListener| {
+        listener.set_nonblocking(false).unwrap();
+        listener.accept().unwrap().0
+    };
+    let listener = TcpListener::bind(("127.0.0.1", port)).unwrap();
+    let start = Instant::now();
+    let mut stream: TcpStream = accept(&listener);
+    let (peer, _, writer) = client.up();
+    // The backoff is capped at 1 s.
+    assert!(start.elapsed() < Duration::from_millis(1500));
+    writer.send(b"ping").unwrap();
+    let mut buf = [0; 4];
+    std::io::Read::read_exact(&mut stream, &mut buf).unwrap();
+    assert_eq!(&buf, b"ping");
 
-#[test]
-fn tcp_connect_refused_names_the_uri() {
-    let port = free_tcp_port();
-    let uri = format!("tcp://127.0.0.1:{port}");
-    let err = open_err(&uri);
-    assert_eq!(err.kind(), io::ErrorKind::ConnectionRefused, "{err}");
-    assert!(err.to_string().starts_with(&uri), "{err}");
+    // The server drops the connection: down, then up again on the next accept.
+    drop(stream);
+    client.down(peer);
+    let mut stream = accept(&listener);
+    let (again, _, _) = client.up();
+    assert_ne!(peer, again);
+    std::io::Write::write_all(&mut stream, b"pong").unwrap();
+    assert_eq!(client.read_exactly(again, 4), b"pong");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -290,7 +313,6 @@ mod tty {
     use std::io::{Read, Write};
     use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
     use std::path::Path;
-    use std::sync::mpsc;
 
     /// A pty pair, or `None` (and a note why) where this machine cannot make one.
     fn pty_pair() -> Option<(TTYPort, TTYPort)> {
@@ -330,6 +352,15 @@ mod tty {
         fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink())
     }
 
+    /// Waits until `done` holds, for at most [`PATIENCE`].
+    fn eventually(what: &str, done: impl Fn() -> bool) {
+        let deadline = Instant::now() + PATIENCE;
+        while !done() {
+            assert!(Instant::now() < deadline, "{what}");
+            thread::sleep(Duration::from_millis(10));
+        }
+    }
+
     #[test]
     fn pty_attach_through_symlink() {
         if pty_pair().is_none() {
@@ -338,38 +369,38 @@ mod tty {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("ttyX");
         let uri = format!("pty://{}", path.display());
-        let link = open(&uri);
-        assert_eq!(link.name(), uri);
+        let pty = open(&uri);
         let target = fs::read_link(&path).expect("the symlink was not created");
         assert!(target.starts_with("/dev/"), "{}", target.display());
-        let (mut r, mut w) = link.split();
+        let (peer, name, w) = pty.up();
+        assert_eq!(name, uri);
 
-        // Nobody attached yet: reading is quiet, not an error.
-        assert_quiet(&mut *r, Duration::from_millis(100));
+        // Nobody attached yet: quiet, not down.
+        pty.quiet(Duration::from_millis(100));
 
         // Attach without touching the terminal settings: the pty must already be raw.
-        let mut peer = open_plain(&path);
+        let mut attached = open_plain(&path);
         let bytes = all_bytes();
-        w.write_all(&bytes).unwrap();
-        assert_eq!(read_file_exactly(&peer, bytes.len()), bytes);
-        peer.write_all(&bytes).unwrap();
-        assert_eq!(read_exactly(&mut *r, bytes.len()), bytes);
+        w.send(&bytes).unwrap();
+        assert_eq!(read_file_exactly(&attached, bytes.len()), bytes);
+        attached.write_all(&bytes).unwrap();
+        assert_eq!(pty.read_exactly(peer, bytes.len()), bytes);
 
-        // The peer leaving does not break the link, and a new one can attach.
-        drop(peer);
-        assert_quiet(&mut *r, Duration::from_millis(100));
-        let mut peer = open_plain(&path);
-        w.write_all(b"again").unwrap();
-        assert_eq!(read_file_exactly(&peer, 5), b"again");
-        peer.write_all(b"back").unwrap();
-        assert_eq!(read_exactly(&mut *r, 4), b"back");
-        drop(peer);
+        // The program leaving does not take the link down, and a new one can attach.
+        drop(attached);
+        pty.quiet(Duration::from_millis(100));
+        let mut attached = open_plain(&path);
+        w.send(b"again").unwrap();
+        assert_eq!(read_file_exactly(&attached, 5), b"again");
+        attached.write_all(b"back").unwrap();
+        assert_eq!(pty.read_exactly(peer, 4), b"back");
+        drop(attached);
 
-        // The symlink lives as long as either half.
-        drop(r);
+        // The symlink goes with the endpoint and its sender.
+        drop(pty);
         assert!(is_symlink(&path));
         drop(w);
-        assert!(!is_symlink(&path), "the symlink was not removed");
+        eventually("the symlink was not removed", || !is_symlink(&path));
     }
 
     #[test]
@@ -379,18 +410,19 @@ mod tty {
         }
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("ttyBridge");
-        let (mut r, mut w) = open(&format!("pty://{}&7", path.display())).split();
-        let mut peer = serialport::new(path.to_str().unwrap(), 921_600)
+        let pty = open(&format!("pty://{}&7", path.display()));
+        let (peer, _, w) = pty.up();
+        let mut attached = serialport::new(path.to_str().unwrap(), 921_600)
             .timeout(PATIENCE)
             .open()
             .expect("attaching with serialport");
         let bytes = all_bytes();
-        w.write_all(&bytes).unwrap();
+        w.send(&bytes).unwrap();
         let mut got = vec![0; bytes.len()];
-        peer.read_exact(&mut got).unwrap();
+        attached.read_exact(&mut got).unwrap();
         assert_eq!(got, bytes);
-        peer.write_all(&bytes).unwrap();
-        assert_eq!(read_exactly(&mut *r, bytes.len()), bytes);
+        attached.write_all(&bytes).unwrap();
+        assert_eq!(pty.read_exactly(peer, bytes.len()), bytes);
     }
 
     #[test]
@@ -400,13 +432,18 @@ mod tty {
         }
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("ttyB");
-        let (mut pr, mut pw) = open(&format!("pty://{}", path.display())).split();
+        let pty = open(&format!("pty://{}", path.display()));
+        let (pp, _, pw) = pty.up();
         for _ in 0..2 {
-            // Attaching twice in a row also checks that the serial link gives up its
-            // exclusive claim on the pty (which stays open) when it is dropped.
-            let (mut sr, mut sw) = open(&format!("serial://{}", path.display())).split();
-            exchange(&mut *pw, &mut *sr, &all_bytes());
-            exchange(&mut *sw, &mut *pr, &all_bytes());
+            // Attaching twice in a row also checks that the serial endpoint gives up its
+            // exclusive claim on the pty (which stays open) when it closes.
+            let serial = open(&format!("serial://{}", path.display()));
+            let (sp, _, sw) = serial.up();
+            exchange(&pw, &serial, sp, &all_bytes());
+            exchange(&sw, &pty, pp, &all_bytes());
+            drop((serial, sw));
+            // The reader notices the stop within its poll period.
+            thread::sleep(Duration::from_millis(300));
         }
         // Root ignores the exclusive flag, so where the test runs as root (and can switch
         // users) check that an unprivileged user can attach, too.
@@ -441,8 +478,10 @@ mod tty {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("notes.txt");
         fs::write(&path, "keep me").unwrap();
-        let err = open_err(&format!("pty://{}", path.display()));
+        let uri = format!("pty://{}", path.display());
+        let err = open_err(&uri);
         assert_eq!(err.kind(), io::ErrorKind::AlreadyExists, "{err}");
+        assert!(err.to_string().starts_with(&uri), "{err}");
         assert!(err.to_string().contains("not a symlink"), "{err}");
         assert_eq!(fs::read_to_string(&path).unwrap(), "keep me");
     }
@@ -455,14 +494,14 @@ mod tty {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("ttyStale");
         std::os::unix::fs::symlink("/dev/pts/does-not-exist", &path).unwrap();
-        let link = open(&format!("pty://{}", path.display()));
+        let pty = open(&format!("pty://{}", path.display()));
         let target = fs::read_link(&path).unwrap();
         assert_ne!(target, Path::new("/dev/pts/does-not-exist"));
-        let mut peer = open_plain(&path);
-        let (_r, mut w) = link.split();
-        w.write_all(b"fresh").unwrap();
-        assert_eq!(read_file_exactly(&peer, 5), b"fresh");
-        peer.flush().unwrap();
+        let mut attached = open_plain(&path);
+        let (_, _, w) = pty.up();
+        w.send(b"fresh").unwrap();
+        assert_eq!(read_file_exactly(&attached, 5), b"fresh");
+        attached.flush().unwrap();
     }
 
     #[test]
@@ -472,13 +511,14 @@ mod tty {
         }
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("ttyIdle");
-        let (_r, mut w) = open(&format!("pty://{}", path.display())).split();
+        let pty = open(&format!("pty://{}", path.display()));
+        let (_, _, w) = pty.up();
         // Nobody drains the pty: once the kernel buffers are full, writes must fail (and
         // promptly) rather than block the caller forever.
         let chunk = [0x55u8; 1024];
         let start = Instant::now();
         let err = (0..16 * 1024)
-            .find_map(|_| w.write_all(&chunk).err())
+            .find_map(|_| w.send(&chunk).err())
             .expect("16 MiB went into a pty nobody reads");
         assert_eq!(err.kind(), io::ErrorKind::TimedOut, "{err}");
         assert!(start.elapsed() < PATIENCE, "took {:?}", start.elapsed());
@@ -490,36 +530,30 @@ mod tty {
             return;
         };
         let slave_path = slave.name().unwrap();
-        let uri = format!("serial://{slave_path}:115200&0x01");
-        let link = open(&uri);
-        assert_eq!(link.name(), format!("serial://{slave_path}:115200&1"));
+        let serial = open(&format!("serial://{slave_path}:115200&0x01"));
+        let (peer, name, w) = serial.up();
+        assert_eq!(name, format!("serial://{slave_path}:115200"));
 
-        // The device is exclusive while the link is open.
-        let err = open_err(&format!("serial://{slave_path}"));
-        assert!(err.to_string().contains(&slave_path), "{err}");
+        // The device is exclusive while it is open: a second endpoint does not come up.
+        let second = open(&format!("serial://{slave_path}"));
+        second.quiet(Duration::from_millis(300));
+        drop(second);
 
-        let (mut r, mut w) = link.split();
-        assert_quiet(&mut *r, Duration::from_millis(100));
-        assert_eq!(r.read(&mut [0; 8], Duration::ZERO).unwrap(), 0);
-
+        serial.quiet(Duration::from_millis(100));
         master.set_timeout(PATIENCE).unwrap();
         let bytes = all_bytes();
-        w.write_all(&bytes).unwrap();
+        w.send(&bytes).unwrap();
         let mut got = vec![0; bytes.len()];
         master.read_exact(&mut got).unwrap();
         assert_eq!(got, bytes);
         master.write_all(&bytes).unwrap();
-        assert_eq!(read_exactly(&mut *r, bytes.len()), bytes);
+        assert_eq!(serial.read_exactly(peer, bytes.len()), bytes);
 
-        // Halves on other threads.
-        let reader = thread::spawn(move || read_exactly(&mut *r, 3));
-        master.write_all(b"abc").unwrap();
-        assert_eq!(reader.join().unwrap(), b"abc");
-        drop(w);
-
-        // Released on drop: it opens again.
-        let (mut r, _w) = open(&format!("serial://{slave_path}")).split();
+        // Released on close: it opens again.
+        drop((serial, w));
+        let again = open(&format!("serial://{slave_path}"));
+        let (peer, _, _) = again.up();
         master.write_all(b"reopened").unwrap();
-        assert_eq!(read_exactly(&mut *r, 8), b"reopened");
+        assert_eq!(again.read_exactly(peer, 8), b"reopened");
     }
 }

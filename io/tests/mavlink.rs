@@ -2,9 +2,9 @@
 
 use std::time::Duration;
 
+use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::tlog::{self, read_tlog, redact_setup_signing};
 use ferrolink_io::mavlink::Connection;
-use ferrolink_io::peers::Endpoint;
 use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
 
 static META: &[MessageMeta] = &[

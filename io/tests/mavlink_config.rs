@@ -3,8 +3,8 @@
 use std::path::Path;
 use std::time::Duration;
 
+use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::{from_main_conf, from_toml};
-use ferrolink_io::peers::Endpoint;
 
 #[test]
 fn toml_with_filters_groups_and_signing() {

@@ -1,8 +1,8 @@
 //! Interface URI parsing, defaults, routes and the canonical `Display` form.
 
-use ferrolink_io::{Endpoint, Transport, UriError};
+use ferrolink_io::{Interface, Transport, UriError};
 
-fn parse(uri: &str) -> Endpoint {
+fn parse(uri: &str) -> Interface {
     uri.parse()
         .unwrap_or_else(|e| panic!("{uri:?} should parse: {e}"))
 }
@@ -15,7 +15,7 @@ fn transport(uri: &str) -> Transport {
 
 /// The error message (without the hint) for a URI that must not parse.
 fn error(uri: &str) -> String {
-    match uri.parse::<Endpoint>() {
+    match uri.parse::<Interface>() {
         Ok(e) => panic!("{uri:?} should not parse, got {e:?}"),
         Err(e) => e.message().to_owned(),
     }
@@ -191,55 +191,55 @@ fn display_spells_out_defaults() {
 #[test]
 fn display_round_trips() {
     let endpoints = [
-        Endpoint {
+        Interface {
             transport: serial("/dev/ttyACM0", 921_600),
             routes: vec![],
         },
-        Endpoint {
+        Interface {
             transport: serial("/dev/odd:12", 57_600),
             routes: vec![1, 2, 3],
         },
-        Endpoint {
+        Interface {
             transport: serial("/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0", 1),
             routes: vec![],
         },
-        Endpoint {
+        Interface {
             transport: udp("127.0.0.1", 34000, 34001),
             routes: vec![3, 4],
         },
-        Endpoint {
+        Interface {
             transport: udp("fe80::1", 0, 65535),
             routes: vec![255, 0, 255],
         },
-        Endpoint {
+        Interface {
             transport: Transport::Tcp {
                 host: "robot.local".into(),
                 port: 34000,
             },
             routes: vec![],
         },
-        Endpoint {
+        Interface {
             transport: Transport::Tcp {
                 host: "::1".into(),
                 port: 1,
             },
             routes: vec![7],
         },
-        Endpoint {
+        Interface {
             transport: Transport::TcpListen {
                 host: "0.0.0.0".into(),
                 port: 4000,
             },
             routes: vec![],
         },
-        Endpoint {
+        Interface {
             transport: Transport::TcpListen {
                 host: "::".into(),
                 port: 0,
             },
             routes: vec![42],
         },
-        Endpoint {
+        Interface {
             transport: Transport::Pty {
                 name: "/tmp/some dir/ttyX".into(),
             },
@@ -248,7 +248,7 @@ fn display_round_trips() {
     ];
     for endpoint in endpoints {
         let text = endpoint.to_string();
-        let back: Endpoint = text
+        let back: Interface = text
             .parse()
             .unwrap_or_else(|e| panic!("{text:?} (from {endpoint:?}) does not parse: {e}"));
         assert_eq!(back, endpoint, "{text}");
@@ -336,7 +336,7 @@ fn error_messages() {
 
 #[test]
 fn error_display_has_hint() {
-    let err: UriError = "udp://localhost:x".parse::<Endpoint>().unwrap_err();
+    let err: UriError = "udp://localhost:x".parse::<Interface>().unwrap_err();
     insta::assert_snapshot!(err.to_string(), @r#"
     bad port "x" in udp://localhost:x: expected 0..=65535
       hint: accepted forms: serial://PATH[:BAUD], udp://HOST[:IN_PORT][:OUT_PORT], tcp://HOST[:PORT], tcp-listen://[HOST]:PORT, pty://NAME; each may end with &ID,ID,... (route ids, decimal or 0x-hex)
@@ -344,4 +344,27 @@ fn error_display_has_hint() {
     // It is a proper error type.
     let boxed: Box<dyn std::error::Error> = Box::new(err);
     assert!(boxed.to_string().starts_with("bad port"));
+}
+
+#[test]
+fn every_interface_opens_on_the_link_layer() {
+    use ferrolink_io::link::Endpoint as L;
+    let cases = [
+        (
+            "serial:///dev/ttyUSB0",
+            L::Serial("/dev/ttyUSB0".into(), 921_600),
+        ),
+        ("udp://[::1]:5000:5001&3", L::Udp("::1".into(), 5000, 5001)),
+        ("tcp://example.org", L::TcpOut("example.org".into(), 34000)),
+        ("tcp-listen://:34000", L::TcpIn("0.0.0.0".into(), 34000)),
+        ("pty:///tmp/ndlcom0", L::Pty("/tmp/ndlcom0".into())),
+    ];
+    for (uri, link) in cases {
+        assert_eq!(parse(uri).link(), link, "{uri}");
+    }
+    // The link layer names a UDP pair the way the interface URI does.
+    assert_eq!(
+        parse("udp://[::1]:5000:5001&3").link().to_string(),
+        "udp://[::1]:5000:5001"
+    );
 }

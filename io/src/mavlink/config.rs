@@ -40,7 +40,7 @@ use ferrolink_runtime::mavlink::router::{ByteSet, Filter, IdSet, LinkConfig};
 use ferrolink_runtime::mavlink::signing::SecretKey;
 use serde::Deserialize;
 
-use crate::peers::{is_host, Endpoint};
+use crate::link::{is_host, Endpoint};
 
 /// An endpoint and how its links behave.
 #[derive(Debug, Clone, PartialEq, Eq)]

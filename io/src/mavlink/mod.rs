@@ -29,7 +29,7 @@ use ferrolink_runtime::mavlink::{
     find_meta, v1, v2, AnyFrame, Dialect, Header, Message, MessageMeta, UnknownMessageId, Version,
 };
 
-use crate::peers::{self, Endpoint, Event, PeerId, Sender};
+use crate::link::{self, Endpoint, Event, PeerId, Sender};
 
 /// Microseconds since the Unix epoch, by the system clock.
 pub fn unix_us() -> u64 {
@@ -129,7 +129,7 @@ impl From<Event<'_>> for Owned {
 /// feature, `Async`.
 pub trait Events: Sized {
     /// Starts receiving, and gives the sink the endpoint reports to.
-    fn new() -> (Self, peers::Sink);
+    fn new() -> (Self, link::Sink);
     /// An event that is already there.
     fn try_next(&mut self) -> Option<Owned>;
 }
@@ -139,7 +139,7 @@ pub trait Events: Sized {
 pub struct Blocking(mpsc::Receiver<Owned>);
 
 impl Events for Blocking {
-    fn new() -> (Self, peers::Sink) {
+    fn new() -> (Self, link::Sink) {
         let (tx, rx) = mpsc::channel();
         (Blocking(rx), Arc::new(move |e| tx.send(e.into()).is_ok()))
     }
@@ -156,7 +156,7 @@ pub struct Async(tokio::sync::mpsc::UnboundedReceiver<Owned>);
 
 #[cfg(feature = "tokio")]
 impl Events for Async {
-    fn new() -> (Self, peers::Sink) {
+    fn new() -> (Self, link::Sink) {
         let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
         (Async(rx), Arc::new(move |e| tx.send(e.into()).is_ok()))
     }
@@ -170,7 +170,7 @@ impl Events for Async {
 #[cfg(feature = "tokio")]
 pub type AsyncConnection = Connection<Async>;
 
-/// A MAVLink connection on one endpoint URI (see [`crate::peers`] for the forms): blocking, or
+/// A MAVLink connection on one endpoint URI (see [`crate::link`] for the forms): blocking, or
 /// async as `AsyncConnection` (feature `tokio`).
 ///
 /// Frames are received from every peer of the endpoint (each with its own stream parser, so
@@ -180,7 +180,7 @@ pub type AsyncConnection = Connection<Async>;
 pub struct Connection<E = Blocking> {
     uri: Endpoint,
     table: &'static [MessageMeta],
-    handle: peers::Handle,
+    handle: link::Handle,
     events: E,
     peers: HashMap<PeerId, Peer>,
     queue: VecDeque<Frame>,
@@ -209,7 +209,7 @@ impl<E: Events> Connection<E> {
             .parse()
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
         let (events, sink) = E::new();
-        let handle = peers::open(0, &endpoint, peers::Options::default(), sink)?;
+        let handle = link::open(0, &endpoint, link::Options::default(), sink)?;
         Ok(Self {
             uri: endpoint,
             table,

@@ -19,7 +19,7 @@ use serde_json::json;
 
 use super::config::EndpointConfig;
 use super::{tlog, unix_us};
-use crate::peers::{self, Event, PeerId, Sender};
+use crate::link::{self, Event, PeerId, Sender};
 
 /// Route and source table sizes of the daemon.
 type Daemon = Router<MAX_LINKS, 512, 256, 256>;
@@ -165,17 +165,17 @@ pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
         tlog_error: None,
         refused: 0,
     }));
-    let options = peers::Options {
-        peer_expiry: config.peer_expiry.unwrap_or(peers::DEFAULT_PEER_EXPIRY),
+    let options = link::Options {
+        peer_expiry: config.peer_expiry.unwrap_or(link::DEFAULT_PEER_EXPIRY),
     };
     let mut handles = Vec::new();
     for (i, endpoint) in config.endpoints.iter().enumerate() {
         let shared = state.clone();
-        let sink: peers::Sink = Arc::new(move |event| {
+        let sink: link::Sink = Arc::new(move |event| {
             lock(&shared).handle(event);
             true
         });
-        handles.push(peers::open(i, &endpoint.endpoint, options, sink)?);
+        handles.push(link::open(i, &endpoint.endpoint, options, sink)?);
     }
     {
         let mut out = io::stdout().lock();

@@ -1,4 +1,4 @@
-//! ModRob.Ethernet-1 over UDP: one socket per module, packets batched per flush.
+//! ModRob.Ethernet-1 over UDP: one [`link`] endpoint per module, packets batched per flush.
 //!
 //! Ethernet is a shared medium; on UDP each node stands for it by sending every datagram to each
 //! of its peers (unicast fan-out, which also works on loopback, where broadcast does not). A
@@ -8,10 +8,13 @@
 //! blocking and counts packets that do not parse.
 
 use std::io;
-use std::net::{SocketAddr, UdpSocket};
+use std::net::SocketAddr;
+use std::sync::{mpsc, Arc};
 
 use ferrolink_runtime::modrob::ethernet::{Packet, PacketBuilder, MAX_DATAGRAM_LEN};
 use ferrolink_runtime::modrob::Message;
+
+use crate::link::{self, Endpoint, Event, Handle, Sender};
 
 /// Traffic counters of one node.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -32,8 +35,9 @@ pub struct Stats {
 
 /// One module's Ethernet-1 endpoint.
 pub struct EthernetNode {
-    socket: UdpSocket,
-    peers: Vec<SocketAddr>,
+    handle: Handle,
+    datagrams: mpsc::Receiver<Vec<u8>>,
+    peers: Vec<(SocketAddr, Sender)>,
     uuid: [u8; 16],
     ulids: ulid::Generator,
     pending: Vec<Message>,
@@ -43,8 +47,11 @@ pub struct EthernetNode {
 impl std::fmt::Debug for EthernetNode {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("EthernetNode")
-            .field("socket", &self.socket)
-            .field("peers", &self.peers)
+            .field("local", &self.handle.local_addr())
+            .field(
+                "peers",
+                &self.peers.iter().map(|(a, _)| a).collect::<Vec<_>>(),
+            )
             .field("pending", &self.pending.len())
             .field("stats", &self.stats)
             .finish_non_exhaustive()
@@ -52,28 +59,42 @@ impl std::fmt::Debug for EthernetNode {
 }
 
 impl EthernetNode {
-    /// Binds `local` (non-blocking) for the module with UUID `uuid`, sending to `peers`.
+    /// Binds `local` for the module with UUID `uuid`, sending to `peers`.
     pub fn bind(local: SocketAddr, uuid: [u8; 16], peers: Vec<SocketAddr>) -> io::Result<Self> {
-        let socket = UdpSocket::bind(local)?;
-        socket.set_nonblocking(true)?;
-        Ok(Self {
-            socket,
-            peers,
+        let (datagrams_tx, datagrams) = mpsc::channel();
+        let sink: link::Sink = Arc::new(move |event| match event {
+            Event::Rx { bytes, .. } => datagrams_tx.send(bytes.to_vec()).is_ok(),
+            Event::Up { .. } | Event::Down { .. } => true,
+        });
+        let endpoint = Endpoint::UdpIn(local.ip().to_string(), local.port());
+        let handle = link::open(0, &endpoint, link::Options::default(), sink)?;
+        let mut node = Self {
+            handle,
+            datagrams,
+            peers: Vec::new(),
             uuid,
             ulids: ulid::Generator::new(),
             pending: Vec::new(),
             stats: Stats::default(),
-        })
+        };
+        node.set_peers(peers);
+        Ok(node)
     }
 
     /// The bound address.
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
-        self.socket.local_addr()
+        self.handle
+            .local_addr()
+            .ok_or_else(|| io::Error::from(io::ErrorKind::AddrNotAvailable))
     }
 
     /// Replaces the peers.
     pub fn set_peers(&mut self, peers: Vec<SocketAddr>) {
-        self.peers = peers;
+        let handle = &self.handle;
+        self.peers = peers
+            .into_iter()
+            .filter_map(|a| Some((a, handle.sender_to(a)?)))
+            .collect();
     }
 
     /// The counters.
@@ -107,8 +128,8 @@ impl EthernetNode {
             }
             let count = builder.count();
             let bytes = builder.finish();
-            for peer in &self.peers {
-                match self.socket.send_to(bytes, peer) {
+            for (_, peer) in &self.peers {
+                match peer.send(bytes) {
                     Ok(_) => {}
                     // A peer that is not up yet is not an error on a shared medium.
                     Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => {}
@@ -128,16 +149,16 @@ impl EthernetNode {
     /// Hands every message that arrived to `on_message(sender UUID, message)`, without
     /// blocking; returns how many messages.
     pub fn receive(&mut self, mut on_message: impl FnMut([u8; 16], Message)) -> io::Result<usize> {
-        let mut buf = [0u8; 65536];
         let mut n = 0;
         loop {
-            let len = match self.socket.recv_from(&mut buf) {
-                Ok((len, _)) => len,
-                Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(n),
-                Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => continue,
-                Err(e) => return Err(e),
+            let datagram = match self.datagrams.try_recv() {
+                Ok(datagram) => datagram,
+                Err(mpsc::TryRecvError::Empty) => return Ok(n),
+                Err(mpsc::TryRecvError::Disconnected) => {
+                    return Err(io::Error::other("the node's UDP endpoint stopped reading"));
+                }
             };
-            let Ok(packet) = Packet::new_checked(&buf[..len]) else {
+            let Ok(packet) = Packet::new_checked(&datagram) else {
                 self.stats.malformed += 1;
                 continue;
             };

@@ -2,27 +2,26 @@
 //! next node's, one frame per datagram.
 
 use std::io;
-use std::net::{SocketAddr, UdpSocket};
+use std::net::SocketAddr;
+use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
 use ferrolink_runtime::tosnet::frame::MAX_FRAME_LEN;
 use ferrolink_runtime::tosnet::Node;
 
+use crate::link::{self, Endpoint, Event, Handle, Sender};
+
 /// The longest a [`UdpNode::step`] waits for a frame.
 const MAX_WAIT: Duration = Duration::from_millis(5);
-/// Deadlines closer than this are waited for by polling the socket.
-pub const PRECISE_BELOW: Duration = Duration::from_millis(2);
-/// The sleep between polls then.
-const PRECISE_STEP: Duration = Duration::from_micros(50);
 
-/// A [`Node`] on a UDP socket.
+/// A [`Node`] on a UDP endpoint of the [`link`] layer.
 #[derive(Debug)]
 pub struct UdpNode {
     node: Node,
-    socket: UdpSocket,
-    next: SocketAddr,
+    handle: Handle,
+    frames: mpsc::Receiver<Vec<u8>>,
+    next: Sender,
     epoch: Instant,
-    rx: Vec<u8>,
     tx: Vec<u8>,
     /// Frames that could not be sent (the next node's port is closed, for example).
     pub send_errors: u64,
@@ -31,13 +30,22 @@ pub struct UdpNode {
 impl UdpNode {
     /// Binds `listen` and sends to `next`.
     pub fn bind(node: Node, listen: SocketAddr, next: SocketAddr) -> io::Result<Self> {
-        let socket = UdpSocket::bind(listen)?;
+        let (frames_tx, frames) = mpsc::channel();
+        let sink: link::Sink = Arc::new(move |event| match event {
+            Event::Rx { bytes, .. } => frames_tx.send(bytes.to_vec()).is_ok(),
+            Event::Up { .. } | Event::Down { .. } => true,
+        });
+        let endpoint = Endpoint::UdpIn(listen.ip().to_string(), listen.port());
+        let handle = link::open(0, &endpoint, link::Options::default(), sink)?;
+        let next = handle
+            .sender_to(next)
+            .ok_or_else(|| io::Error::other("a UDP endpoint sends anywhere"))?;
         Ok(Self {
             node,
-            socket,
+            handle,
+            frames,
             next,
             epoch: Instant::now(),
-            rx: vec![0; 65536],
             tx: vec![0; MAX_FRAME_LEN],
             send_errors: 0,
         })
@@ -55,7 +63,9 @@ impl UdpNode {
 
     /// The address the node listens on.
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
-        self.socket.local_addr()
+        self.handle
+            .local_addr()
+            .ok_or_else(|| io::Error::from(io::ErrorKind::AddrNotAvailable))
     }
 
     /// Nanoseconds since the node was bound: the node's clock.
@@ -65,10 +75,6 @@ impl UdpNode {
 
     /// Waits for one frame (or the node's next deadline, at most 5 ms), handles it, then runs
     /// the node's timers.
-    ///
-    /// A socket's receive timeout only has the kernel's tick as resolution (several ms), so a
-    /// deadline closer than [`PRECISE_BELOW`] is waited for with short sleeps and non-blocking
-    /// reads instead.
     pub fn step(&mut self) -> io::Result<()> {
         let now = self.now();
         let wait = self
@@ -76,35 +82,17 @@ impl UdpNode {
             .next_deadline()
             .map_or(MAX_WAIT, |t| Duration::from_nanos(t.saturating_sub(now)))
             .min(MAX_WAIT);
-        let received = if wait >= PRECISE_BELOW {
-            self.socket.set_nonblocking(false)?;
-            self.socket
-                .set_read_timeout(Some(wait - PRECISE_BELOW / 2))?;
-            self.socket.recv(&mut self.rx)
-        } else {
-            self.socket.set_nonblocking(true)?;
-            let got = self.socket.recv(&mut self.rx);
-            if got.is_err() && !wait.is_zero() {
-                std::thread::sleep(wait.min(PRECISE_STEP));
-            }
-            got
-        };
-        match received {
-            Ok(len) => {
+        match self.frames.recv_timeout(wait) {
+            Ok(frame) => {
                 let now = self.now();
-                if let Some(out) = self.node.receive(&self.rx[..len], now, &mut self.tx) {
+                if let Some(out) = self.node.receive(&frame, now, &mut self.tx) {
                     self.send(out);
                 }
             }
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-                ) => {}
-            // A closed port downstream comes back as an error on some systems; the watchdog
-            // deals with the broken ring.
-            Err(e) if e.kind() == io::ErrorKind::ConnectionRefused => {}
-            Err(e) => return Err(e),
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                return Err(io::Error::other("the node's UDP endpoint stopped reading"));
+            }
         }
         loop {
             let now = self.now();
@@ -126,7 +114,9 @@ impl UdpNode {
     }
 
     fn send(&mut self, len: usize) {
-        if self.socket.send_to(&self.tx[..len], self.next).is_err() {
+        // A closed port downstream is no reason to stop: the watchdog deals with the broken
+        // ring.
+        if self.next.send(&self.tx[..len]).is_err() {
             self.send_errors += 1;
         }
     }

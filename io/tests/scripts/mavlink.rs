@@ -10,9 +10,9 @@
 //! `main.conf`. Checked: no panic; an endpoint that parses prints as a URI that parses back to
 //! it, also for every endpoint a configuration file yields.
 
+use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::{from_main_conf, from_toml, FileConfig};
 use ferrolink_io::mavlink::tlog::{read_raw, read_tlog, ReadStats, Record};
-use ferrolink_io::peers::Endpoint;
 use ferrolink_runtime::mavlink::MessageMeta;
 
 pub fn check_tlog(data: &[u8], table: &'static [MessageMeta]) {

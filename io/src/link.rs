@@ -1,4 +1,8 @@
-//! Endpoints with many peers, for routers and connections: every peer is its own link.
+//! The link layer every protocol runs on: endpoints with any number of peers, where every peer
+//! (each UDP sender, each TCP client) is a link of its own.
+//!
+//! The MAVLink router and connections, the NDLCom bridge, TosNet's UDP nodes and ModRob's
+//! Ethernet-1 all open their sockets, devices and pseudo-terminals here.
 //!
 //! An [`Endpoint`] is opened with [`open`], which starts its threads and reports to one [`Sink`],
 //! called on those threads: [`Event::Up`] when a peer appears (with a [`Sender`] to write to
@@ -9,6 +13,7 @@
 //! |-----|-------|-|
 //! | `udpin://HOST:PORT` | each address that sends to the bound socket | a peer quiet for the expiry (10 s by default) is reported down |
 //! | `udpout://HOST:PORT` | the one address | sent to from an ephemeral port; replies to that port are read |
+//! | [`Endpoint::Udp`] (NDLCom's `udp://HOST:IN_PORT:OUT_PORT`) | `HOST:OUT_PORT` | sent to from local port `IN_PORT`; every datagram arriving there is read |
 //! | `tcpin://HOST:PORT` | each client | any number of clients |
 //! | `tcpout://HOST:PORT` | the server | reconnects with a backoff from 50 ms doubling to 1 s |
 //! | `serial://PATH[:BAUD]` | the device | reopened every second after it fails or is unplugged |
@@ -18,6 +23,10 @@
 //! they know: `udpin:0.0.0.0:14550`, `udpout:HOST:PORT`, `udp:HOST:PORT` (= udpin),
 //! `udpbcast:HOST:PORT` (= udpout), `tcp:HOST:PORT` (= tcpout), `tcpin:HOST:PORT`,
 //! `serial:/dev/ttyUSB0:57600`, a bare device path (`/dev/ttyACM0[,BAUD]` or `COM3`).
+//!
+//! A UDP endpoint also sends to any address from its bound socket ([`Handle::sender_to`]), for
+//! protocols that fan out to a list of addresses on a shared medium (ModRob's Ethernet-1) or
+//! pass frames around a ring (TosNet).
 //!
 //! Threads, not an async runtime: one blocking reader per socket or client, parked in the kernel
 //! while nothing arrives (idle CPU is a wake-up every 200 ms per reader, to notice shutdown).
@@ -44,8 +53,6 @@ pub const DEFAULT_PEER_EXPIRY: Duration = Duration::from_secs(10);
 pub const MAX_BACKOFF: Duration = Duration::from_secs(1);
 /// How often readers look up from a blocking read to notice a shutdown.
 const POLL: Duration = Duration::from_millis(200);
-/// How long a write to a TCP peer or serial device may block before the frame is given up.
-const WRITE_TIMEOUT: Duration = Duration::from_millis(100);
 
 /// A MAVLink-style endpoint URI.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -54,6 +61,10 @@ pub enum Endpoint {
     UdpIn(String, u16),
     /// `udpout://HOST:PORT`: send there, read the replies.
     UdpOut(String, u16),
+    /// `(HOST, IN_PORT, OUT_PORT)`: bind `IN_PORT` on the unspecified address of `HOST`'s
+    /// family, send to `HOST:OUT_PORT`, and read every datagram that arrives (NDLCom's
+    /// `udp://HOST:IN_PORT:OUT_PORT`, written that way by [`fmt::Display`]).
+    Udp(String, u16, u16),
     /// `tcpin://HOST:PORT`: TCP server; every client is a peer.
     TcpIn(String, u16),
     /// `tcpout://HOST:PORT`: TCP client that reconnects.
@@ -188,6 +199,7 @@ impl fmt::Display for Endpoint {
         match self {
             Endpoint::UdpIn(h, p) => write!(f, "udpin://{}:{p}", host(h)),
             Endpoint::UdpOut(h, p) => write!(f, "udpout://{}:{p}", host(h)),
+            Endpoint::Udp(h, i, o) => write!(f, "udp://{}:{i}:{o}", host(h)),
             Endpoint::TcpIn(h, p) => write!(f, "tcpin://{}:{p}", host(h)),
             Endpoint::TcpOut(h, p) => write!(f, "tcpout://{}:{p}", host(h)),
             Endpoint::Serial(path, baud) => write!(f, "serial://{path}:{baud}"),
@@ -294,12 +306,20 @@ impl Default for Options {
 pub struct Handle {
     stop: Arc<AtomicBool>,
     local: Option<SocketAddr>,
+    udp: Option<Arc<UdpSocket>>,
 }
 
 impl Handle {
-    /// The bound address of a `udpin`, `udpout` or `tcpin` endpoint (useful with port 0).
+    /// The bound address of a UDP or `tcpin` endpoint (useful with port 0).
     pub fn local_addr(&self) -> Option<SocketAddr> {
         self.local
+    }
+
+    /// Sends from a UDP endpoint's socket to `to`, whether or not it was heard from; `None`
+    /// for other endpoints.
+    pub fn sender_to(&self, to: SocketAddr) -> Option<Sender> {
+        let socket = self.udp.clone()?;
+        Some(Sender(SenderKind::Udp(socket, to)))
     }
 }
 
@@ -329,25 +349,32 @@ pub fn open(
     let name = endpoint.to_string();
     let uri = name.clone();
     let context = |e: io::Error| io::Error::new(e.kind(), format!("{uri}: {e}"));
+    let mut udp = None;
     let local = match endpoint {
         Endpoint::UdpIn(host, port) => {
             let socket =
-                UdpSocket::bind(resolve(host, *port).map_err(context)?).map_err(context)?;
+                Arc::new(UdpSocket::bind(resolve(host, *port).map_err(context)?).map_err(context)?);
+            udp = Some(socket.clone());
             let local = socket.local_addr().ok();
             spawn(&uri, {
                 let stop = stop.clone();
-                move || udp_in(index, &name, socket, options.peer_expiry, &stop, &events)
+                move || udp_in(index, &name, &socket, options.peer_expiry, &stop, &events)
             })?;
             local
         }
-        Endpoint::UdpOut(host, port) => {
+        Endpoint::UdpOut(host, port) | Endpoint::Udp(host, _, port) => {
             let to = resolve(host, *port).map_err(context)?;
+            let (bind_port, only_from) = match endpoint {
+                Endpoint::Udp(_, in_port, _) => (*in_port, None),
+                _ => (0, Some(to)),
+            };
             let any: SocketAddr = if to.is_ipv4() {
-                ([0, 0, 0, 0], 0).into()
+                (std::net::Ipv4Addr::UNSPECIFIED, bind_port).into()
             } else {
-                (std::net::Ipv6Addr::UNSPECIFIED, 0).into()
+                (std::net::Ipv6Addr::UNSPECIFIED, bind_port).into()
             };
             let socket = Arc::new(UdpSocket::bind(any).map_err(context)?);
+            udp = Some(socket.clone());
             let local = socket.local_addr().ok();
             // The one peer is known now: report it before returning, so a send right after
             // `open` has somewhere to go.
@@ -365,7 +392,7 @@ pub fn open(
             }
             spawn(&uri, {
                 let stop = stop.clone();
-                move || udp_out(peer, socket, to, &stop, &events)
+                move || udp_one_peer(peer, &socket, only_from, &stop, &events)
             })?;
             local
         }
@@ -408,7 +435,7 @@ pub fn open(
             None
         }
     };
-    Ok(Handle { stop, local })
+    Ok(Handle { stop, local, udp })
 }
 
 fn spawn(name: &str, f: impl FnOnce() + Send + 'static) -> io::Result<()> {
@@ -429,12 +456,11 @@ fn is_icmp_noise(e: &io::Error) -> bool {
 fn udp_in(
     index: usize,
     name: &str,
-    socket: UdpSocket,
+    socket: &Arc<UdpSocket>,
     expiry: Duration,
     stop: &AtomicBool,
     events: &Sink,
 ) {
-    let socket = Arc::new(socket);
     let _ = socket.set_read_timeout(Some(POLL));
     let mut peers: HashMap<SocketAddr, (PeerId, Instant)> = HashMap::new();
     let mut swept = Instant::now();
@@ -480,7 +506,7 @@ fn udp_in(
                     endpoint: index,
                     peer,
                     name: format!("{name} <- {from}"),
-                    sender: Sender(SenderKind::Udp(socket.clone(), from)),
+                    sender: Sender(SenderKind::Udp(Arc::clone(socket), from)),
                 };
                 if !events(up) {
                     return;
@@ -499,13 +525,20 @@ fn udp_in(
     }
 }
 
-fn udp_out(peer: PeerId, socket: Arc<UdpSocket>, to: SocketAddr, stop: &AtomicBool, events: &Sink) {
+/// Reads a UDP socket with one peer: every datagram, or (`udpout`) only those from `only_from`
+/// (anything else reaching an ephemeral port is ignored).
+fn udp_one_peer(
+    peer: PeerId,
+    socket: &UdpSocket,
+    only_from: Option<SocketAddr>,
+    stop: &AtomicBool,
+    events: &Sink,
+) {
     let _ = socket.set_read_timeout(Some(POLL));
     let mut buf = vec![0u8; 65_536];
     while !stop.load(Ordering::Relaxed) {
         match socket.recv_from(&mut buf) {
-            // Only the peer's replies: anything else reaching our ephemeral port is ignored.
-            Ok((n, from)) if from == to => {
+            Ok((n, from)) if only_from.is_none_or(|to| to == from) => {
                 let rx = Event::Rx {
                     peer,
                     bytes: &buf[..n],
@@ -547,7 +580,7 @@ fn stream_peer(
     events: &Sink,
 ) -> Option<String> {
     let shutdown = stream.try_clone().ok();
-    let why = match crate::tcp::stream_halves(stream, WRITE_TIMEOUT) {
+    let why = match crate::tcp::stream_halves(stream) {
         Ok((reader, writer)) => read_peer(index, name, reader, writer, stop, events),
         Err(e) => Some(e.to_string()),
     };
