@@ -9,12 +9,14 @@
 //! One peer sends PING broadcasts (its send time in `time_usec`) into endpoint A; two peers on
 //! endpoints B and C receive them. Per router:
 //! - at 10,000 msg/s offered for 5 s: what arrived at B and C, the router's CPU time per 10,000
-//!   messages (from /proc), and the latency from A to B at p50 and p99;
+//!   messages (from /proc, in nanoseconds where the kernel keeps schedstat), and the latency from A to B at p50 and p99;
 //! - the most it forwards: 100,000 msg/s offered for 3 s, messages per second arriving at B;
 //! - idle: CPU use over 5 s with the three peers connected and nothing sent;
 //! - six peers, one per endpoint, each sending broadcasts at a sixth of 10,000 msg/s for 5 s: the
 //!   share of the copies owed to the other five that arrived (not for MAVProxy, which forwards
 //!   between its master and its outputs only).
+//!
+//! First, the floor: the latency of one loopback hop with no router at all, at the same rate.
 //!
 //! Peers that are not installed are skipped with a note: mavlink-routerd is taken from
 //! `MAVLINK_ROUTERD` or the `PATH`, MAVProxy from `.venv/bin/mavproxy.py` or the `PATH`.
@@ -199,8 +201,21 @@ fn start_mavproxy(ports: &[u16]) -> Option<Router> {
     })
 }
 
-/// User and system CPU time of a process, from /proc.
+/// CPU time of a process: the scheduler's nanosecond count summed over its live threads
+/// (/proc/PID/task/*/schedstat), or, where the kernel keeps no schedstat, user and system time
+/// in 10 ms ticks (/proc/PID/stat).
 fn cpu_time(pid: u32) -> Option<Duration> {
+    let tasks = std::fs::read_dir(format!("/proc/{pid}/task")).ok()?;
+    let mut ns = 0u64;
+    for task in tasks.flatten() {
+        let schedstat = std::fs::read_to_string(task.path().join("schedstat")).unwrap_or_default();
+        if let Some(t) = schedstat.split_whitespace().next().and_then(|f| f.parse::<u64>().ok()) {
+            ns += t;
+        }
+    }
+    if ns > 0 {
+        return Some(Duration::from_nanos(ns));
+    }
     let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
     let fields: Vec<&str> = stat.rsplit_once(')')?.1.split_whitespace().collect();
     let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
@@ -359,6 +374,23 @@ fn measure(router: &Router, ports: &[u16]) -> Row {
     Row { max_rate, ..row }
 }
 
+/// The floor: latency p50 and p99 of one loopback hop with no router, PINGs at 10,000 msg/s for
+/// 5 s straight from the sender to a receiving peer. A router adds a second hop.
+fn direct() -> (u64, u64) {
+    let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    let port = source.local_addr().expect("bound").port();
+    let sink = Sink::new(port, 201);
+    source
+        .connect(sink.socket.local_addr().expect("bound"))
+        .expect("connect");
+    thread::sleep(Duration::from_millis(200));
+    send(&source, 1, 10_000, Duration::from_secs(5));
+    thread::sleep(Duration::from_millis(200));
+    let mut l = sink.take();
+    l.sort_unstable();
+    (percentile(&l, 0.5), percentile(&l, 0.99))
+}
+
 /// Six peers, one per endpoint and each a system of its own, sending PING broadcasts at a sixth
 /// of 10,000 msg/s for 5 s: the share of the copies owed to the other five that arrived.
 fn six_peers(ports: &[u16]) -> f64 {
@@ -404,6 +436,8 @@ fn main() {
     }
     println!("machine: {}", machine());
     println!("three UDP endpoints on loopback; PING broadcasts from A to B and C");
+    let (p50, p99) = direct();
+    println!("one loopback hop without a router, 10k msg/s: latency p50 {p50} µs, p99 {p99} µs");
     let mut rows = Vec::new();
     type Start = fn(&[u16]) -> Option<Router>;
     let starters: [(u16, Start); 3] = [
