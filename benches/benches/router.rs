@@ -18,6 +18,11 @@
 //!
 //! First, the floor: the latency of one loopback hop with no router at all, at the same rate.
 //!
+//! Last, the I/O model behind the daemon, measured the same way in this process: the runtime's
+//! router over three UDP sockets, driven by a blocking reader thread per socket (what `io::link`
+//! does), by a single-threaded tokio runtime (one epoll loop), and by tokio's multi-threaded
+//! runtime with two workers. CPU is that of the forwarding threads only.
+//!
 //! Peers that are not installed are skipped with a note: mavlink-routerd is taken from
 //! `MAVLINK_ROUTERD` or the `PATH`, MAVProxy from `.venv/bin/mavproxy.py` or the `PATH`.
 
@@ -32,6 +37,7 @@ use std::time::{Duration, Instant};
 
 use ferrolink_generated::mavlink::minimal::Message;
 use ferrolink_runtime::mavlink::parser::Parser;
+use ferrolink_runtime::mavlink::router::{LinkConfig, Router as Core};
 use ferrolink_runtime::mavlink::{v2, Dialect, Header, MessageMeta};
 
 /// HEARTBEAT and PING (and the rest of our minimal dialect).
@@ -209,7 +215,11 @@ fn cpu_time(pid: u32) -> Option<Duration> {
     let mut ns = 0u64;
     for task in tasks.flatten() {
         let schedstat = std::fs::read_to_string(task.path().join("schedstat")).unwrap_or_default();
-        if let Some(t) = schedstat.split_whitespace().next().and_then(|f| f.parse::<u64>().ok()) {
+        if let Some(t) = schedstat
+            .split_whitespace()
+            .next()
+            .and_then(|f| f.parse::<u64>().ok())
+        {
             ns += t;
         }
     }
@@ -418,6 +428,229 @@ fn six_peers(ports: &[u16]) -> f64 {
     received as f64 / (5 * sent) as f64
 }
 
+/// A router core over three UDP sockets, each with one peer (the first address heard from).
+struct Forwarder {
+    core: Mutex<Box<Core<3, 64, 64, 64>>>,
+    peers: Mutex<[Option<std::net::SocketAddr>; 3]>,
+}
+
+impl Forwarder {
+    fn new() -> Arc<Forwarder> {
+        let mut core: Box<Core<3, 64, 64, 64>> = Box::new(Core::new(META));
+        for _ in 0..3 {
+            core.open_link(LinkConfig::default()).expect("three links");
+        }
+        Arc::new(Forwarder {
+            core: Mutex::new(core),
+            peers: Mutex::new([None; 3]),
+        })
+    }
+
+    /// Routes a datagram `bytes` read on socket `link` from `from`; `send(link, bytes, to)`
+    /// writes a copy.
+    fn route(
+        &self,
+        link: usize,
+        from: std::net::SocketAddr,
+        bytes: &[u8],
+        mut send: impl FnMut(usize, &[u8], std::net::SocketAddr),
+    ) {
+        let peers = {
+            let mut peers = self.peers.lock().expect("lock");
+            peers[link].get_or_insert(from);
+            *peers
+        };
+        let now = now_us();
+        let mut core = self.core.lock().expect("lock");
+        core.receive(link, bytes, now, now, |routed| {
+            let mut to = routed.to;
+            while to != 0 {
+                let out = to.trailing_zeros() as usize;
+                to &= to - 1;
+                if let Some(addr) = peers.get(out).copied().flatten() {
+                    send(out, routed.bytes, addr);
+                }
+            }
+        });
+    }
+}
+
+/// How the forwarder's sockets are driven.
+#[derive(Clone, Copy)]
+enum Model {
+    Threads,
+    TokioCurrentThread,
+    TokioTwoWorkers,
+}
+
+impl Model {
+    fn name(self) -> &'static str {
+        match self {
+            Model::Threads => "a blocking reader thread per socket",
+            Model::TokioCurrentThread => "tokio, current-thread runtime",
+            Model::TokioTwoWorkers => "tokio, multi-thread runtime, 2 workers",
+        }
+    }
+}
+
+/// Runs the forwarder on `ports` under `model` until `stop` is set. Its threads are named
+/// `fwd...` so that their CPU time can be told from the load generator's.
+fn forward(model: Model, ports: [u16; 3], stop: Arc<AtomicBool>) -> thread::JoinHandle<()> {
+    let sockets: Vec<UdpSocket> = ports
+        .iter()
+        .map(|p| UdpSocket::bind(("127.0.0.1", *p)).expect("bind"))
+        .collect();
+    let fwd = Forwarder::new();
+    match model {
+        Model::Threads => {
+            let sockets: Vec<Arc<UdpSocket>> = sockets.into_iter().map(Arc::new).collect();
+            let readers: Vec<_> = (0..3)
+                .map(|link| {
+                    let (sockets, fwd, stop) = (sockets.clone(), fwd.clone(), stop.clone());
+                    thread::Builder::new()
+                        .name(format!("fwd{link}"))
+                        .spawn(move || {
+                            let socket = &sockets[link];
+                            let _ = socket.set_read_timeout(Some(Duration::from_millis(200)));
+                            let mut buf = [0u8; 65536];
+                            while !stop.load(Ordering::Relaxed) {
+                                let Ok((n, from)) = socket.recv_from(&mut buf) else {
+                                    continue;
+                                };
+                                fwd.route(link, from, &buf[..n], |out, bytes, to| {
+                                    let _ = sockets[out].send_to(bytes, to);
+                                });
+                            }
+                        })
+                        .expect("spawn")
+                })
+                .collect();
+            thread::spawn(move || {
+                for r in readers {
+                    let _ = r.join();
+                }
+            })
+        }
+        Model::TokioCurrentThread | Model::TokioTwoWorkers => {
+            let runtime = match model {
+                Model::TokioCurrentThread => tokio::runtime::Builder::new_current_thread(),
+                _ => {
+                    let mut b = tokio::runtime::Builder::new_multi_thread();
+                    b.worker_threads(2);
+                    b
+                }
+            }
+            .thread_name("fwd-tokio")
+            .enable_io()
+            .enable_time()
+            .build()
+            .expect("runtime");
+            thread::Builder::new()
+                .name("fwd-tokio".into())
+                .spawn(move || {
+                    runtime.block_on(async move {
+                        let sockets: Vec<Arc<tokio::net::UdpSocket>> = sockets
+                            .into_iter()
+                            .map(|s| {
+                                s.set_nonblocking(true).expect("nonblocking");
+                                Arc::new(tokio::net::UdpSocket::from_std(s).expect("tokio"))
+                            })
+                            .collect();
+                        let tasks: Vec<_> = (0..3)
+                            .map(|link| {
+                                let (sockets, fwd, stop) =
+                                    (sockets.clone(), fwd.clone(), stop.clone());
+                                tokio::spawn(async move {
+                                    let mut buf = vec![0u8; 65536];
+                                    while !stop.load(Ordering::Relaxed) {
+                                        let wait = Duration::from_millis(200);
+                                        let got = tokio::time::timeout(
+                                            wait,
+                                            sockets[link].recv_from(&mut buf),
+                                        )
+                                        .await;
+                                        let Ok(Ok((n, from))) = got else {
+                                            continue;
+                                        };
+                                        fwd.route(link, from, &buf[..n], |out, bytes, to| {
+                                            let _ = sockets[out].try_send_to(bytes, to);
+                                        });
+                                    }
+                                })
+                            })
+                            .collect();
+                        for t in tasks {
+                            let _ = t.await;
+                        }
+                    });
+                })
+                .expect("spawn")
+        }
+    }
+}
+
+/// CPU time of this process's threads whose name starts with `fwd`.
+fn forwarder_cpu() -> Duration {
+    let Ok(tasks) = std::fs::read_dir("/proc/self/task") else {
+        return Duration::ZERO;
+    };
+    let mut ns = 0u64;
+    for task in tasks.flatten() {
+        let comm = std::fs::read_to_string(task.path().join("comm")).unwrap_or_default();
+        if !comm.starts_with("fwd") {
+            continue;
+        }
+        let schedstat = std::fs::read_to_string(task.path().join("schedstat")).unwrap_or_default();
+        ns += schedstat
+            .split_whitespace()
+            .next()
+            .and_then(|f| f.parse::<u64>().ok())
+            .unwrap_or(0);
+    }
+    Duration::from_nanos(ns)
+}
+
+/// One I/O model: delivered share, CPU per 10,000 messages, latency p50/p99 at 10k msg/s, and
+/// idle CPU, as in [`measure`].
+fn measure_model(model: Model, ports: [u16; 3]) -> Row {
+    let stop = Arc::new(AtomicBool::new(false));
+    let runner = forward(model, ports, stop.clone());
+    let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    source.connect(("127.0.0.1", ports[0])).expect("connect");
+    let _ = source.send(&heartbeat(1));
+    let (b, c) = (Sink::new(ports[1], 201), Sink::new(ports[2], 202));
+    thread::sleep(Duration::from_millis(500));
+    let _ = (b.take(), c.take());
+    let idle = Duration::from_secs(5);
+    let before = forwarder_cpu();
+    thread::sleep(idle);
+    let idle_pct = 100.0 * (forwarder_cpu() - before).as_secs_f64() / idle.as_secs_f64();
+    let before = forwarder_cpu();
+    let sent = send(&source, 1, 10_000, Duration::from_secs(5));
+    thread::sleep(Duration::from_millis(500));
+    let cpu = forwarder_cpu().saturating_sub(before);
+    let (mut lb, lc) = (b.take(), c.take());
+    lb.sort_unstable();
+    let forwarded = (lb.len() + lc.len()).max(1) as f64;
+    let row = Row {
+        name: model.name(),
+        six_peers: None,
+        delivered: (lb.len() + lc.len()) as f64 / (2 * sent) as f64,
+        cpu_per_10k_ms: cpu.as_secs_f64() * 1e3 * 10_000.0 / forwarded,
+        p50: percentile(&lb, 0.5),
+        p99: percentile(&lb, 0.99),
+        max_rate: 0.0,
+        idle_pct,
+    };
+    let window = Duration::from_secs(3);
+    send(&source, 1, 100_000, window);
+    thread::sleep(Duration::from_millis(500));
+    let max_rate = b.take().len() as f64 / window.as_secs_f64();
+    stop.store(true, Ordering::Relaxed);
+    let _ = runner.join();
+    Row { max_rate, ..row }
+}
+
 fn machine() -> String {
     let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
     let model = cpuinfo
@@ -481,6 +714,19 @@ fn main() {
             r.idle_pct
         );
     }
+    let models = [
+        Model::Threads,
+        Model::TokioCurrentThread,
+        Model::TokioTwoWorkers,
+    ];
+    let model_rows: Vec<Row> = models
+        .iter()
+        .enumerate()
+        .map(|(i, &m)| {
+            let base = 34600 + 10 * i as u16;
+            measure_model(m, [base, base + 1, base + 2])
+        })
+        .collect();
     if let Some(ours) = rows.iter().find(|r| r.name == "ferrolink") {
         for other in rows.iter().filter(|r| r.name != "ferrolink") {
             println!(
@@ -491,5 +737,22 @@ fn main() {
                 ours.p99 as f64 / other.p99.max(1) as f64
             );
         }
+    }
+    println!("\nthe I/O model, in-process, same load (CPU of the forwarding threads only):");
+    println!(
+        "\n| I/O model | delivered at 10k msg/s | CPU per 10,000 msgs | latency p50 | p99 | most forwarded to one peer | idle CPU |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
+    for r in &model_rows {
+        println!(
+            "| {} | {:.2} % | {:.1} ms | {} µs | {} µs | {:.0} msg/s | {:.2} % |",
+            r.name,
+            100.0 * r.delivered,
+            r.cpu_per_10k_ms,
+            r.p50,
+            r.p99,
+            r.max_rate,
+            r.idle_pct
+        );
     }
 }

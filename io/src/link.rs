@@ -28,7 +28,8 @@
 //! protocols that fan out to a list of addresses on a shared medium (ModRob's Ethernet-1) or
 //! pass frames around a ring (TosNet).
 //!
-//! Threads, not an async runtime: one blocking reader per socket or client, parked in the kernel
+//! Threads, not an async runtime (measured against tokio in `cargo bench -p ferrolink-bench --bench
+//! router`): one blocking reader per socket or client, parked in the kernel
 //! while nothing arrives (idle CPU is a wake-up every 200 ms per reader, to notice shutdown).
 //! The sink runs on the reader's thread, so a router can route a datagram the moment it is read,
 //! with no hand-over between threads; writes go straight to the socket.
