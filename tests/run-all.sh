@@ -3,7 +3,8 @@
 #
 # The reference encoder, pymavlink 2.4.50, is installed into .venv first; the conformance tests
 # generate their vectors with it, and the MAVLink tool tests compare against it. mavsdk and
-# MAVProxy follow, for the router's checks with real ground-station software. Without network the install fails and those tests are skipped
+# MAVProxy follow, for the router's checks with real ground-station software, and eclipse-zenoh,
+# for the fleet test's Zenoh subscriber. Without network the install fails and those tests are skipped
 # (and say so); everything else still runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,6 +30,15 @@ if .venv/bin/python -c 'import pymavlink' 2>/dev/null; then
   fi
   if .venv/bin/python -c 'import mavsdk, MAVProxy' 2>/dev/null; then
     export FERROLINK_REQUIRE_GCS=1
+  fi
+  # A Zenoh client we did not write, for the fleet test.
+  if ! .venv/bin/python -c 'import zenoh' 2>/dev/null; then
+    echo "== installing eclipse-zenoh 1.10.2 into .venv"
+    .venv/bin/pip install --quiet --disable-pip-version-check eclipse-zenoh==1.10.2 ||
+      echo "warning: eclipse-zenoh could not be installed; the fleet test's subscriber checks will be skipped"
+  fi
+  if .venv/bin/python -c 'import zenoh' 2>/dev/null; then
+    export FERROLINK_REQUIRE_ZENOH=1
   fi
 fi
 

@@ -48,9 +48,21 @@ pub enum Command {
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
         /// udpin://HOST:PORT | udpout://HOST:PORT | tcpin://HOST:PORT | tcpout://HOST:PORT |
-        /// serial://PATH[:BAUD]
+        /// serial://PATH[:BAUD] |
+        /// zenoh://?mode=peer&listen=tcp/HOST:PORT[&connect=tcp/HOST:PORT][&encoding=raw|json][&prefix=ferrolink]
         #[arg(required_unless_present = "config", value_name = "ENDPOINT")]
         endpoints: Vec<String>,
+    },
+    /// List the routers on a Zenoh network: their links and the systems behind them.
+    Fleet {
+        /// Wait this long for answers.
+        #[arg(long, value_name = "SECS", default_value_t = 2.0)]
+        timeout: f64,
+        /// Print one JSON object per router instead of text.
+        #[arg(long)]
+        json: bool,
+        /// zenoh://?mode=peer&connect=tcp/HOST:PORT[&prefix=ferrolink]
+        uri: String,
     },
     /// Print a .tlog (or a raw capture) as JSON lines in pymavlink's to_dict() form.
     Dump {
@@ -80,6 +92,94 @@ pub enum Command {
     },
 }
 
+/// The router's `zenoh://` endpoints.
+#[cfg(feature = "zenoh")]
+fn zenoh_endpoints(
+    uris: &[&str],
+    dialects: Dialects,
+) -> Result<Vec<router::Attached>, Box<dyn std::error::Error>> {
+    use ferrolink_zenoh::{mavlink, ZenohUri};
+    if uris.is_empty() {
+        return Ok(Vec::new());
+    }
+    // The endpoint's threads live as long as the process; so do the dictionaries.
+    let ir: &'static ferrolink_codegen::ir::Ir = Box::leak(Box::new(dialects.ir));
+    let decoder = Box::leak(Box::new(ferrolink_codegen::traffic::PayloadDecoder::new(
+        ir,
+    )));
+    let dictionaries = mavlink::Dictionaries {
+        table: dialects.table,
+        decoder,
+    };
+    uris.iter()
+        .map(|uri| Ok(mavlink::attached(uri.parse::<ZenohUri>()?, dictionaries)))
+        .collect()
+}
+
+#[cfg(not(feature = "zenoh"))]
+fn zenoh_endpoints(
+    uris: &[&str],
+    _: Dialects,
+) -> Result<Vec<router::Attached>, Box<dyn std::error::Error>> {
+    match uris.first() {
+        None => Ok(Vec::new()),
+        Some(uri) => Err(without_zenoh(uri).into()),
+    }
+}
+
+#[cfg(not(feature = "zenoh"))]
+fn without_zenoh(uri: &str) -> String {
+    format!(
+        "{uri}: this ferrolink was built without Zenoh\n  hint: build it with the default features \
+         (cargo build --release -p ferrolink-cli)"
+    )
+}
+
+/// `ferrolink mavlink fleet`.
+#[cfg(feature = "zenoh")]
+fn fleet(uri: &str, timeout: Duration, json: bool) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let uri: ferrolink_zenoh::ZenohUri = uri.parse()?;
+    let routers = ferrolink_zenoh::fleet::list(&uri, timeout)?;
+    let mut out = io::stdout().lock();
+    for r in &routers {
+        if json {
+            writeln!(out, "{r}")?;
+            continue;
+        }
+        let text = |v: &serde_json::Value| v.as_str().unwrap_or("?").to_owned();
+        writeln!(
+            out,
+            "router {} ({})",
+            text(&r["router"]),
+            text(&r["endpoint"])
+        )?;
+        for link in r["links"].as_array().into_iter().flatten() {
+            writeln!(out, "  link   {}", text(link))?;
+        }
+        for s in r["systems"].as_array().into_iter().flatten() {
+            writeln!(
+                out,
+                "  system {}/{} on {}",
+                s["sysid"],
+                s["compid"],
+                text(&s["link"])
+            )?;
+        }
+    }
+    if routers.is_empty() {
+        eprintln!(
+            "no router answered under {}/ within {timeout:?}",
+            uri.fleet_root()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(not(feature = "zenoh"))]
+fn fleet(uri: &str, _: Duration, _: bool) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    Err(without_zenoh(uri).into())
+}
+
 /// The default `--peer-expiry`, in seconds.
 const DEFAULT_PEER_EXPIRY: f64 = 10.0;
 
@@ -105,15 +205,22 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 None => FileConfig::default(),
             };
             let mut all = file.endpoints;
+            let mut zenoh = Vec::new();
             for uri in &endpoints {
+                if uri.starts_with("zenoh:") {
+                    zenoh.push(uri.as_str());
+                    continue;
+                }
                 let mut endpoint = EndpointConfig::new(uri.parse::<Endpoint>()?);
                 endpoint.link.dedup_window_us = dedup_ms.saturating_mul(1000);
                 all.push(endpoint);
             }
             let dialects = Dialects::load(&[file.dialects, dialect].concat())?;
+            let table = dialects.table;
+            let attached = zenoh_endpoints(&zenoh, dialects)?;
             let config = router::Config {
                 endpoints: all,
-                table: dialects.table,
+                table,
                 tlog: tlog.or(file.tlog),
                 stats_json: stats_json.or(file.stats_json),
                 stats_every: stats.map(seconds).transpose()?,
@@ -126,9 +233,10 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             let stop = Arc::new(AtomicBool::new(false));
             let flag = stop.clone();
             ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))?;
-            router::run(&config, &stop)?;
+            router::run(&config, attached, &stop)?;
             Ok(ExitCode::SUCCESS)
         }
+        Command::Fleet { timeout, json, uri } => fleet(&uri, seconds(timeout)?, json),
         Command::Dump {
             dialect,
             raw,
@@ -193,24 +301,19 @@ fn dump(
         let t_us = record
             .t_us
             .map_or_else(|| "null".to_owned(), |t| t.to_string());
-        let msg = match decoder.to_dict(frame.msg_id(), frame.payload()) {
-            Some(dict) => {
-                decoded += 1;
-                format!("\"msg\":{dict}")
-            }
-            None => {
-                unknown += 1;
-                format!(
-                    "\"msg\":null,\"id\":{},\"payload\":\"{}\"",
-                    frame.msg_id(),
-                    hex::encode(frame.payload())
-                )
-            }
-        };
-        let line = format!(
-            "{{\"t_us\":{t_us},\"sysid\":{},\"compid\":{},\"seq\":{},{msg}}}",
-            header.sysid, header.compid, header.seq
+        let (members, known) = decoder.frame_json_members(
+            header.sysid,
+            header.compid,
+            header.seq,
+            frame.msg_id(),
+            frame.payload(),
         );
+        if known {
+            decoded += 1;
+        } else {
+            unknown += 1;
+        }
+        let line = format!("{{\"t_us\":{t_us},{members}}}");
         if failed.is_none() {
             if let Err(e) = writeln!(out, "{line}") {
                 failed = Some(e);

@@ -529,6 +529,159 @@ impl PayloadDecoder<'_> {
     }
 }
 
+impl PayloadDecoder<'_> {
+    /// A MAVLink frame's JSON members, in the form `ferrolink mavlink dump` prints and the Zenoh
+    /// endpoint publishes: `"sysid":..,"compid":..,"seq":..,"msg":{<to_dict() form>}`, or for an
+    /// id the dictionaries lack `"sysid":..,"compid":..,"seq":..,"msg":null,"id":N,
+    /// "payload":"<hex>"`, without the braces (a caller may put members in front). The second
+    /// value tells whether the id was known.
+    pub fn frame_json_members(
+        &self,
+        sysid: u8,
+        compid: u8,
+        seq: u8,
+        id: u32,
+        payload: &[u8],
+    ) -> (String, bool) {
+        let head = format!("\"sysid\":{sysid},\"compid\":{compid},\"seq\":{seq}");
+        match self.to_dict(id, payload) {
+            Some(dict) => (format!("{head},\"msg\":{dict}"), true),
+            None => (
+                format!(
+                    "{head},\"msg\":null,\"id\":{id},\"payload\":\"{}\"",
+                    hex::encode(payload)
+                ),
+                false,
+            ),
+        }
+    }
+
+    /// The inverse of [`PayloadDecoder::to_dict`]: a message in pymavlink's `to_dict()` form
+    /// (`{"mavpackettype": NAME, field: value, ...}`) as its id and full-length payload.
+    ///
+    /// Fields left out are zero. Integers must fit their field, floats may be given as integers,
+    /// `null` is NaN, arrays are lists of at most the array's length, `char` fields are text of at
+    /// most their length. `defaults` fills fields the object leaves out (a target taken from
+    /// elsewhere, say). Errors name the field.
+    pub fn from_dict(
+        &self,
+        dict: &serde_json::Value,
+        defaults: &[(&str, u64)],
+    ) -> Result<(u32, Vec<u8>), String> {
+        use serde_json::Value as Json;
+        let object = dict
+            .as_object()
+            .ok_or("a message is a JSON object with \"mavpackettype\"")?;
+        let name = object
+            .get("mavpackettype")
+            .and_then(Json::as_str)
+            .ok_or("\"mavpackettype\" (the message name) is missing")?;
+        let message = self
+            .by_id
+            .values()
+            .find(|m| m.name.wire == name)
+            .ok_or_else(|| format!("no message {name} in the dictionaries"))?;
+        let mut payload = vec![0u8; message.max_len];
+        for (key, value) in object {
+            if key == "mavpackettype" {
+                continue;
+            }
+            let field = message
+                .fields
+                .iter()
+                .find(|f| f.name.wire == *key)
+                .ok_or_else(|| format!("{name} has no field {key}"))?;
+            put_field(
+                field,
+                value,
+                &mut payload[field.offset..field.offset + field.ty.size()],
+            )
+            .map_err(|e| format!("{name}.{key}: {e}"))?;
+        }
+        for (key, value) in defaults {
+            if object.contains_key(*key) {
+                continue;
+            }
+            if let Some(field) = message.fields.iter().find(|f| f.name.wire == *key) {
+                let bytes = &mut payload[field.offset..field.offset + field.ty.size()];
+                put_field(field, &Json::from(*value), bytes)
+                    .map_err(|e| format!("{name}.{key}: {e}"))?;
+            }
+        }
+        Ok((message.id, payload))
+    }
+}
+
+/// Writes one field's JSON value into its bytes.
+fn put_field(field: &Field, value: &serde_json::Value, out: &mut [u8]) -> Result<(), String> {
+    use serde_json::Value as Json;
+    let primitive = field.ty.primitive;
+    if primitive == Primitive::Char {
+        let text = value.as_str().ok_or("expected text")?;
+        if text.len() > out.len() {
+            return Err(format!("text longer than {} bytes", out.len()));
+        }
+        out[..text.len()].copy_from_slice(text.as_bytes());
+        return Ok(());
+    }
+    match (field.ty.array, value) {
+        (Some(_), Json::Array(items)) => {
+            let size = primitive.size();
+            if items.len() * size > out.len() {
+                return Err(format!("more than {} elements", out.len() / size));
+            }
+            for (item, chunk) in items.iter().zip(out.chunks_exact_mut(size)) {
+                put_scalar(primitive, item, chunk)?;
+            }
+            Ok(())
+        }
+        (Some(_), _) => Err("expected a list".into()),
+        (None, value) => put_scalar(primitive, value, out),
+    }
+}
+
+/// Writes one number, little-endian, checking that it fits.
+fn put_scalar(
+    primitive: Primitive,
+    value: &serde_json::Value,
+    out: &mut [u8],
+) -> Result<(), String> {
+    let bits = 8 * out.len() as u32;
+    let bytes: Vec<u8> = match primitive {
+        Primitive::F32 => match value {
+            serde_json::Value::Null => f32::NAN.to_le_bytes().to_vec(),
+            v => (v.as_f64().ok_or("expected a number")? as f32)
+                .to_le_bytes()
+                .to_vec(),
+        },
+        Primitive::F64 => match value {
+            serde_json::Value::Null => f64::NAN.to_le_bytes().to_vec(),
+            v => v
+                .as_f64()
+                .ok_or("expected a number")?
+                .to_le_bytes()
+                .to_vec(),
+        },
+        Primitive::U8 | Primitive::U16 | Primitive::U32 | Primitive::U64 | Primitive::Char => {
+            let v = value.as_u64().ok_or("expected an unsigned integer")?;
+            if bits < 64 && v >> bits != 0 {
+                return Err(format!("{v} does not fit {bits} bits"));
+            }
+            v.to_le_bytes().to_vec()
+        }
+        Primitive::I8 | Primitive::I16 | Primitive::I32 | Primitive::I64 => {
+            let v = value.as_i64().ok_or("expected an integer")?;
+            if bits < 64 && (v < -(1i64 << (bits - 1)) || v >= 1i64 << (bits - 1)) {
+                return Err(format!("{v} does not fit {bits} signed bits"));
+            }
+            v.to_le_bytes().to_vec()
+        }
+    };
+    let n = out.len();
+    out.copy_from_slice(&bytes[..n]);
+    Ok(())
+}
+
 /// `char` bytes as pymavlink 2.4.50 shows them: cut at the first NUL, then ASCII with every
 /// byte above 0x7f replaced by U+FFFD (Python's `decode("ascii", errors="replace")`).
 fn python_text(bytes: &[u8]) -> String {
@@ -1026,5 +1179,75 @@ mod tests {
         assert_eq!(short.values.len(), 5);
         let err = export.write(&meta, &short).expect_err("second layout");
         assert_eq!(err.kind(), io::ErrorKind::Other);
+    }
+
+    #[test]
+    fn from_dict_inverts_to_dict() {
+        let ir = minimal();
+        let decoder = PayloadDecoder::new(&ir);
+        let statustext = statustext_payload(b"GPS: no fix");
+        for (id, payload) in [
+            (0, heartbeat_payload()),
+            (30, attitude_payload()),
+            (253, statustext),
+        ] {
+            let dict = decoder.to_dict(id, &payload).expect("known id");
+            let (back_id, back) = decoder.from_dict(&dict, &[]).expect("reads back");
+            assert_eq!(back_id, id);
+            assert_eq!(back[..payload.len()], payload[..], "{dict}");
+            assert!(back[payload.len()..].iter().all(|&b| b == 0));
+        }
+    }
+
+    #[test]
+    fn from_dict_fills_defaults_and_names_bad_fields() {
+        let ir = minimal();
+        let decoder = PayloadDecoder::new(&ir);
+        let ping = serde_json::json!({"mavpackettype": "PING", "seq": 7});
+        let (id, payload) = decoder
+            .from_dict(&ping, &[("target_system", 3), ("seq", 99)])
+            .expect("encodes");
+        assert_eq!(id, 4);
+        let dict = decoder.to_dict(id, &payload).expect("known");
+        assert_eq!(dict["seq"], 7, "given fields win over defaults");
+        assert_eq!(dict["target_system"], 3);
+        assert_eq!(dict["time_usec"], 0);
+        let bad = |value: serde_json::Value| decoder.from_dict(&value, &[]).expect_err("bad");
+        assert_eq!(
+            bad(serde_json::json!({"mavpackettype": "PING", "target_system": 300})),
+            "PING.target_system: 300 does not fit 8 bits"
+        );
+        assert_eq!(
+            bad(serde_json::json!({"mavpackettype": "PING", "speed": 1})),
+            "PING has no field speed"
+        );
+        assert_eq!(
+            bad(serde_json::json!({"mavpackettype": "NOPE"})),
+            "no message NOPE in the dictionaries"
+        );
+        assert_eq!(
+            bad(serde_json::json!({"seq": 1})),
+            "\"mavpackettype\" (the message name) is missing"
+        );
+    }
+
+    #[test]
+    fn frame_json_members_for_known_and_unknown_ids() {
+        let ir = minimal();
+        let decoder = PayloadDecoder::new(&ir);
+        let (known, is_known) = decoder.frame_json_members(1, 2, 3, 0, &heartbeat_payload());
+        assert!(is_known);
+        let value: serde_json::Value = serde_json::from_str(&format!("{{{known}}}")).expect("json");
+        assert_eq!(value["msg"]["mavpackettype"], "HEARTBEAT");
+        assert!(
+            known.starts_with(r#""sysid":1,"compid":2,"seq":3,"msg":"#),
+            "{known}"
+        );
+        let (unknown, is_known) = decoder.frame_json_members(1, 2, 3, 60_000, &[0xde, 0xad]);
+        assert!(!is_known);
+        assert_eq!(
+            unknown,
+            r#""sysid":1,"compid":2,"seq":3,"msg":null,"id":60000,"payload":"dead""#
+        );
     }
 }

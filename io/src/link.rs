@@ -214,7 +214,9 @@ pub type PeerId = u64;
 
 static NEXT_PEER: AtomicU64 = AtomicU64::new(1);
 
-fn next_peer() -> PeerId {
+/// A fresh peer number, for endpoints opened outside this module (Zenoh, say) that report to a
+/// [`Sink`] the same way.
+pub fn next_peer() -> PeerId {
     NEXT_PEER.fetch_add(1, Ordering::Relaxed)
 }
 
@@ -258,10 +260,14 @@ pub type Sink = Arc<dyn Fn(Event<'_>) -> bool + Send + Sync>;
 #[derive(Debug, Clone)]
 pub struct Sender(SenderKind);
 
+/// Writes one frame or datagram somewhere outside this module.
+type WriteFn = dyn Fn(&[u8]) -> io::Result<()> + Send + Sync;
+
 #[derive(Clone)]
 enum SenderKind {
     Udp(Arc<UdpSocket>, SocketAddr),
     Stream(Arc<Mutex<Box<dyn LinkWriter>>>),
+    Fn(Arc<WriteFn>),
 }
 
 impl fmt::Debug for SenderKind {
@@ -269,11 +275,17 @@ impl fmt::Debug for SenderKind {
         match self {
             SenderKind::Udp(socket, to) => f.debug_tuple("Udp").field(socket).field(to).finish(),
             SenderKind::Stream(_) => f.write_str("Stream"),
+            SenderKind::Fn(_) => f.write_str("Fn"),
         }
     }
 }
 
 impl Sender {
+    /// A sender that hands every write to `write`: for endpoints opened outside this module.
+    pub fn from_fn(write: impl Fn(&[u8]) -> io::Result<()> + Send + Sync + 'static) -> Sender {
+        Sender(SenderKind::Fn(Arc::new(write)))
+    }
+
     /// Sends `bytes` as one datagram, or writes them to the stream (a TCP peer that does not
     /// read for 100 ms loses the write, so one stalled client cannot hold up a router).
     pub fn send(&self, bytes: &[u8]) -> io::Result<()> {
@@ -283,6 +295,7 @@ impl Sender {
                 .lock()
                 .unwrap_or_else(PoisonError::into_inner)
                 .write_all(bytes),
+            SenderKind::Fn(write) => write(bytes),
         }
     }
 }

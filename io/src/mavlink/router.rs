@@ -2,8 +2,11 @@
 //!
 //! Every peer of every endpoint (each UDP sender on a `udpin` port, each client of a `tcpin`
 //! server, the one peer of `udpout`, `tcpout` and `serial`) is its own link, with its own parser
-//! and counters. One thread routes; each endpoint has reader threads that feed it.
+//! and counters. Each endpoint has reader threads that route what they read, under one lock.
 //! `ferrolink mavlink router` is a thin wrapper around [`run`].
+//!
+//! Endpoints that are not opened from a [`link`] URI are [`Attached`]: they report to a
+//! [`link::Sink`] like the link layer does (the Zenoh endpoint of `ferrolink-zenoh` is one).
 
 use std::collections::HashMap;
 use std::fs::File;
@@ -13,7 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
-use ferrolink_runtime::mavlink::router::{LinkCounters, Router, MAX_LINKS};
+use ferrolink_runtime::mavlink::router::{LinkConfig, LinkCounters, Router, MAX_LINKS};
 use ferrolink_runtime::mavlink::MessageMeta;
 use serde_json::json;
 
@@ -43,6 +46,30 @@ pub struct Config {
     pub peer_expiry: Option<Duration>,
 }
 
+/// What an [`Attached`] endpoint may ask of the router: its links and the systems behind them,
+/// as `{"links": [NAME, ...], "systems": [{"sysid": .., "compid": .., "link": NAME}, ...]}`.
+pub type Status = Arc<dyn Fn() -> serde_json::Value + Send + Sync>;
+
+/// Starts an attached endpoint as endpoint number `index`, reporting to the sink; what it returns
+/// keeps it running until dropped.
+pub type Open = Box<dyn FnOnce(usize, link::Sink, Status) -> io::Result<Box<dyn Send>> + Send>;
+
+/// An endpoint the daemon does not open from a [`link`] URI.
+pub struct Attached {
+    /// The configuration of its links.
+    pub link: LinkConfig,
+    /// Starts it.
+    pub open: Open,
+}
+
+impl std::fmt::Debug for Attached {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Attached")
+            .field("link", &self.link)
+            .finish_non_exhaustive()
+    }
+}
+
 struct Link {
     slot: usize,
     name: String,
@@ -53,7 +80,8 @@ struct Link {
 /// What the endpoint threads share: they route each read on their own thread, under this lock.
 struct State {
     router: Box<Daemon>,
-    endpoints: Vec<EndpointConfig>,
+    /// The link configuration of every endpoint, attached ones last.
+    link_configs: Vec<LinkConfig>,
     links: HashMap<PeerId, Link>,
     by_slot: Vec<Option<PeerId>>,
     tlog: Option<tlog::Writer<BufWriter<File>>>,
@@ -70,11 +98,7 @@ impl State {
                 name,
                 sender,
             } => {
-                let link = self
-                    .endpoints
-                    .get(endpoint)
-                    .map(|e| e.link.clone())
-                    .unwrap_or_default();
+                let link = self.link_configs.get(endpoint).cloned().unwrap_or_default();
                 let Some(slot) = self.router.open_link(link) else {
                     self.refused += 1;
                     eprintln!("link refused: {name}: all {MAX_LINKS} links in use");
@@ -141,13 +165,42 @@ impl State {
     }
 }
 
+impl State {
+    fn status(&self) -> serde_json::Value {
+        let name = |slot: usize| {
+            self.by_slot
+                .get(slot)
+                .copied()
+                .flatten()
+                .and_then(|p| self.links.get(&p))
+                .map(|l| l.name.clone())
+        };
+        let links: Vec<String> = sorted_links(&self.links)
+            .into_iter()
+            .map(|l| l.name.clone())
+            .collect();
+        let mut systems: Vec<_> = self
+            .router
+            .routes()
+            .filter_map(|r| Some((r.sysid, r.compid, name(r.link)?)))
+            .collect();
+        systems.sort();
+        json!({
+            "links": links,
+            "systems": systems.into_iter().map(|(sysid, compid, link)|
+                json!({"sysid": sysid, "compid": compid, "link": link})).collect::<Vec<_>>(),
+        })
+    }
+}
+
 fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
     state.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// Runs the router until `run_for` elapses or `stop` is set. Prints `ready` on stdout once
-/// every endpoint is bound and listening.
-pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
+/// Runs the router on the configured endpoints and the `attached` ones (numbered after them)
+/// until `run_for` elapses or `stop` is set. Prints `ready` on stdout once every endpoint is
+/// bound and listening.
+pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> io::Result<()> {
     let tlog = match &config.tlog {
         Some(path) => Some(tlog::Writer::new(BufWriter::new(File::create(path)?))),
         None => None,
@@ -158,7 +211,12 @@ pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
     };
     let state = Arc::new(Mutex::new(State {
         router: Box::new(Router::new(config.table)),
-        endpoints: config.endpoints.clone(),
+        link_configs: config
+            .endpoints
+            .iter()
+            .map(|e| e.link.clone())
+            .chain(attached.iter().map(|a| a.link.clone()))
+            .collect(),
         links: HashMap::new(),
         by_slot: vec![None; MAX_LINKS],
         tlog,
@@ -177,12 +235,24 @@ pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
         });
         handles.push(link::open(i, &endpoint.endpoint, options, sink)?);
     }
+    let mut guards = Vec::new();
+    let count = config.endpoints.len() + attached.len();
+    for (i, endpoint) in (config.endpoints.len()..).zip(attached) {
+        let shared = state.clone();
+        let sink: link::Sink = Arc::new(move |event| {
+            lock(&shared).handle(event);
+            true
+        });
+        let shared = state.clone();
+        let status: Status = Arc::new(move || lock(&shared).status());
+        guards.push((endpoint.open)(i, sink, status)?);
+    }
     {
         let mut out = io::stdout().lock();
         writeln!(
             out,
             "ready: routing {} endpoint(s), {} message(s) known",
-            config.endpoints.len(),
+            count,
             config.table.len()
         )?;
         out.flush()?;
@@ -225,6 +295,7 @@ pub fn run(config: &Config, stop: &Arc<AtomicBool>) -> io::Result<()> {
     // Stop the readers first (they notice within 200 ms), so nothing is routed after the last
     // record is flushed.
     drop(handles);
+    drop(guards);
     std::thread::sleep(Duration::from_millis(250));
     let mut s = lock(&state);
     if let Some(out) = &mut stats_json {

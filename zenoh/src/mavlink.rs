@@ -1,0 +1,392 @@
+//! The router's Zenoh endpoint: one link of the router whose far side is every other router and
+//! client on the same Zenoh network.
+//!
+//! - **Out.** Every frame routing sends to this link is put on
+//!   `<prefix>/mavlink/<sysid>/<compid>/<MESSAGE_NAME>` (`UNKNOWN_<id>` for an id the router does
+//!   not know), as the raw frame or as JSON, as the endpoint's encoding says.
+//! - **In.** Samples other sessions put under `<prefix>/mavlink/**` are frames received on this
+//!   link, raw (first byte 0xFD or 0xFE) or JSON, whatever the endpoint's own encoding. The
+//!   router's own puts never come back (the subscriber takes remote samples only), and routing
+//!   never sends a frame back to the link it came from, so nothing received from Zenoh is put on
+//!   Zenoh again.
+//! - **Commands.** A put on `<prefix>/mavlink/<sysid>/<compid>/tx` is taken like any other
+//!   sample. In JSON, the object is either the envelope `{"sysid":..,"compid":..,"seq":..,
+//!   "msg":{..}}` or the message alone (`{"mavpackettype":"COMMAND_LONG",..}`); the sender
+//!   defaults to 255/190 and the sequence number to a counter of the endpoint's own, and
+//!   `target_system`/`target_component` left out of the message are the key's `<sysid>` and
+//!   `<compid>`.
+//! - **Discovery.** The endpoint answers queries on `<prefix>/fleet/<zenoh id>` with the router's
+//!   links and the systems behind them (`ferrolink mavlink fleet`).
+//!
+//! JSON re-encodes: a frame that went through JSON arrives as an unsigned MAVLink 2 frame with
+//! the same header and payload; an id the dictionaries lack cannot be re-encoded and is counted
+//! as rejected.
+
+use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread;
+use std::time::{Duration, Instant};
+
+use ferrolink_codegen::traffic::PayloadDecoder;
+use ferrolink_io::link::{self, Event, Sender};
+use ferrolink_io::mavlink::router::{Attached, Status};
+use ferrolink_runtime::mavlink::router::LinkConfig;
+use ferrolink_runtime::mavlink::{find_meta, v2, AnyFrame, Header, MessageMeta};
+use zenoh::sample::Locality;
+use zenoh::Wait;
+
+use crate::uri::{Encoding, ZenohUri};
+
+/// How often the endpoint's threads look up to notice a shutdown.
+const POLL: Duration = Duration::from_millis(200);
+/// The sender of a JSON command that names none (a ground station's ids).
+pub const DEFAULT_SYSID: u8 = 255;
+/// See [`DEFAULT_SYSID`].
+pub const DEFAULT_COMPID: u8 = 190;
+
+/// What the endpoint knows of MAVLink: the router's message table, and the dictionaries to
+/// write and read JSON with.
+#[derive(Debug, Clone, Copy)]
+pub struct Dictionaries {
+    /// The messages (CRC_EXTRA, names), sorted by id.
+    pub table: &'static [MessageMeta],
+    /// The same dictionaries, for JSON.
+    pub decoder: &'static PayloadDecoder<'static>,
+}
+
+/// The Zenoh endpoint of `uri` as an endpoint the router daemon attaches.
+pub fn attached(uri: ZenohUri, dictionaries: Dictionaries) -> Attached {
+    Attached {
+        link: LinkConfig::default(),
+        open: Box::new(move |index, sink, status| {
+            let running = open(index, &uri, dictionaries, sink, status)?;
+            Ok(Box::new(running) as Box<dyn Send>)
+        }),
+    }
+}
+
+/// A running endpoint; dropping it stops its threads and closes the session.
+#[derive(Debug)]
+pub struct Running {
+    session: zenoh::Session,
+    stop: Arc<AtomicBool>,
+    threads: Vec<thread::JoinHandle<()>>,
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+        let _ = self.session.close().wait();
+    }
+}
+
+/// The key a frame from `sysid`/`compid` with message `name` is put on.
+pub fn key(root: &str, sysid: u8, compid: u8, name: &str) -> String {
+    format!("{root}/{sysid}/{compid}/{name}")
+}
+
+/// Opens the session, reports the one peer up to `sink`, and starts the subscriber and the
+/// discovery queryable.
+pub fn open(
+    index: usize,
+    uri: &ZenohUri,
+    dictionaries: Dictionaries,
+    sink: link::Sink,
+    status: Status,
+) -> io::Result<Running> {
+    let name = uri.to_string();
+    let fail = |e: &dyn std::fmt::Display| io::Error::other(format!("{name}: {e}"));
+    let config = uri.config().map_err(|e| fail(&e))?;
+    let session = zenoh::open(config).wait().map_err(|e| fail(&e))?;
+    let root = uri.mavlink_root();
+    let subscriber = session
+        .declare_subscriber(format!("{root}/**"))
+        .allowed_origin(Locality::Remote)
+        .wait()
+        .map_err(|e| fail(&e))?;
+    let fleet_key = format!("{}/{}", uri.fleet_root(), session.zid());
+    let queryable = session
+        .declare_queryable(&fleet_key)
+        .wait()
+        .map_err(|e| fail(&e))?;
+
+    let peer = link::next_peer();
+    let sender = publisher(&session, &root, uri.encoding, dictionaries);
+    let up = Event::Up {
+        endpoint: index,
+        peer,
+        name: name.clone(),
+        sender,
+    };
+    if !sink(up) {
+        return Err(fail(&"nobody listens for events"));
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    let receiving = {
+        let stop = stop.clone();
+        thread::Builder::new()
+            .name("zenoh-rx".into())
+            .spawn(move || {
+                let mut frames = FrameMaker::new(dictionaries);
+                while !stop.load(Ordering::Relaxed) {
+                    let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {
+                        continue;
+                    };
+                    let key = sample.key_expr().as_str().to_owned();
+                    let bytes = sample.payload().to_bytes();
+                    let Some(frame) = frames.frame(&root, &key, &bytes) else {
+                        continue;
+                    };
+                    let rx = Event::Rx {
+                        peer,
+                        bytes: &frame,
+                        at: Instant::now(),
+                    };
+                    if !sink(rx) {
+                        return;
+                    }
+                }
+            })?
+    };
+    let answering = {
+        let stop = stop.clone();
+        let zid = session.zid().to_string();
+        thread::Builder::new()
+            .name("zenoh-fleet".into())
+            .spawn(move || {
+                while !stop.load(Ordering::Relaxed) {
+                    let Ok(Some(query)) = queryable.recv_timeout(POLL) else {
+                        continue;
+                    };
+                    let mut answer = status();
+                    answer["router"] = zid.clone().into();
+                    answer["endpoint"] = name.clone().into();
+                    let _ = query.reply(&fleet_key, answer.to_string()).wait();
+                }
+            })?
+    };
+    Ok(Running {
+        session,
+        stop,
+        threads: vec![receiving, answering],
+    })
+}
+
+/// The link's sender: puts every frame routing hands it on its key.
+fn publisher(
+    session: &zenoh::Session,
+    root: &str,
+    encoding: Encoding,
+    dictionaries: Dictionaries,
+) -> Sender {
+    let (session, root) = (session.clone(), root.to_owned());
+    Sender::from_fn(move |bytes| {
+        let frame = AnyFrame::new_checked(bytes)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, format!("{e:?}")))?;
+        let (sysid, compid, id) = (frame.sysid(), frame.compid(), frame.msg_id());
+        let key = match find_meta(dictionaries.table, id) {
+            Some(meta) => key(&root, sysid, compid, meta.name),
+            None => key(&root, sysid, compid, &format!("UNKNOWN_{id}")),
+        };
+        let put = match encoding {
+            Encoding::Raw => session.put(key, bytes.to_vec()).wait(),
+            Encoding::Json => {
+                let (members, _) = dictionaries.decoder.frame_json_members(
+                    sysid,
+                    compid,
+                    frame.seq(),
+                    id,
+                    frame.payload(),
+                );
+                session.put(key, format!("{{{members}}}")).wait()
+            }
+        };
+        put.map_err(|e| io::Error::other(e.to_string()))
+    })
+}
+
+/// Turns samples into frames.
+struct FrameMaker {
+    dictionaries: Dictionaries,
+    /// The sequence number of the next JSON command that names none.
+    seq: u8,
+    /// Samples that carried no frame.
+    rejected: u64,
+    last_report: Option<Instant>,
+}
+
+impl FrameMaker {
+    fn new(dictionaries: Dictionaries) -> Self {
+        Self {
+            dictionaries,
+            seq: 0,
+            rejected: 0,
+            last_report: None,
+        }
+    }
+
+    /// The frame a sample on `key` carries, or `None` (reported on stderr at most once a
+    /// second, and counted) if it carries none.
+    fn frame(&mut self, root: &str, key: &str, bytes: &[u8]) -> Option<Vec<u8>> {
+        if matches!(bytes.first(), Some(0xFD | 0xFE)) {
+            return Some(bytes.to_vec());
+        }
+        match self.json_frame(root, key, bytes) {
+            Ok(frame) => Some(frame),
+            Err(e) => {
+                self.rejected += 1;
+                let rejected = self.rejected;
+                let now = Instant::now();
+                if self
+                    .last_report
+                    .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
+                {
+                    self.last_report = Some(now);
+                    eprintln!("zenoh: sample on {key} rejected ({rejected} so far): {e}");
+                }
+                None
+            }
+        }
+    }
+
+    /// A JSON sample as an unsigned MAVLink 2 frame.
+    fn json_frame(&mut self, root: &str, key: &str, bytes: &[u8]) -> Result<Vec<u8>, String> {
+        use serde_json::Value;
+        let value: Value =
+            serde_json::from_slice(bytes).map_err(|e| format!("neither a frame nor JSON: {e}"))?;
+        let (envelope, msg) = match value.get("msg") {
+            Some(Value::Null) => {
+                return Err("an unknown id (\"msg\": null) cannot be re-encoded".into());
+            }
+            Some(msg) => (&value, msg),
+            None => (&Value::Null, &value),
+        };
+        // `<root>/<sysid>/<compid>/tx`: the key names the target.
+        let mut defaults = Vec::new();
+        let parts: Vec<&str> = key
+            .strip_prefix(root)
+            .unwrap_or(key)
+            .trim_start_matches('/')
+            .split('/')
+            .collect();
+        if let [sysid, compid, "tx"] = parts[..] {
+            if let (Ok(s), Ok(c)) = (sysid.parse::<u8>(), compid.parse::<u8>()) {
+                defaults.push(("target_system", u64::from(s)));
+                defaults.push(("target_component", u64::from(c)));
+            }
+        }
+        let (id, payload) = self.dictionaries.decoder.from_dict(msg, &defaults)?;
+        let meta = find_meta(self.dictionaries.table, id)
+            .ok_or_else(|| format!("message id {id} has no CRC_EXTRA here"))?;
+        let number = |name: &str, default: u8| -> Result<u8, String> {
+            match envelope.get(name) {
+                None => Ok(default),
+                Some(v) => v
+                    .as_u64()
+                    .and_then(|v| u8::try_from(v).ok())
+                    .ok_or_else(|| format!("\"{name}\" must be 0 to 255")),
+            }
+        };
+        let seq = match envelope.get("seq") {
+            None => {
+                self.seq = self.seq.wrapping_add(1);
+                self.seq.wrapping_sub(1)
+            }
+            Some(_) => number("seq", 0)?,
+        };
+        let header = Header::new(
+            seq,
+            number("sysid", DEFAULT_SYSID)?,
+            number("compid", DEFAULT_COMPID)?,
+        );
+        let mut out = [0u8; v2::MAX_FRAME_LEN];
+        let n = v2::encode_raw(header, id, meta.crc_extra, &payload, &mut out)
+            .map_err(|e| format!("{e:?}"))?;
+        Ok(out[..n].to_vec())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ferrolink_runtime::mavlink::parser::Parser;
+
+    fn dictionaries() -> Dictionaries {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../definitions/mavlink/minimal.xml");
+        let ir = ferrolink_codegen::load(&[path]).expect("minimal.xml").ir;
+        let ir: &'static _ = Box::leak(Box::new(ir));
+        Dictionaries {
+            table: ferrolink_codegen::traffic::message_table(ir),
+            decoder: Box::leak(Box::new(PayloadDecoder::new(ir))),
+        }
+    }
+
+    /// (sysid, compid, seq, id, JSON of the payload) of the one frame in `bytes`.
+    fn parse(d: Dictionaries, bytes: &[u8]) -> (u8, u8, u8, u32, serde_json::Value) {
+        let mut parser: Parser = Parser::new(d.table);
+        let mut got = Vec::new();
+        parser.feed_all(bytes, |f| {
+            let dict = d.decoder.to_dict(f.msg_id(), f.payload()).expect("known");
+            let h = f.header();
+            got.push((h.sysid, h.compid, h.seq, f.msg_id(), dict));
+        });
+        assert_eq!(got.len(), 1, "one frame, CRC checked");
+        got.remove(0)
+    }
+
+    #[test]
+    fn json_samples_become_frames() {
+        let d = dictionaries();
+        let mut maker = FrameMaker::new(d);
+        // The envelope, as a router with encoding=json puts it.
+        let envelope = br#"{"sysid":3,"compid":1,"seq":77,"msg":{"mavpackettype":"PING","seq":5,"time_usec":9,"target_system":0,"target_component":0}}"#;
+        let frame = maker
+            .frame("p/mavlink", "p/mavlink/3/1/PING", envelope)
+            .expect("a frame");
+        let (sysid, compid, seq, id, dict) = parse(d, &frame);
+        assert_eq!((sysid, compid, seq, id), (3, 1, 77, 4));
+        assert_eq!((dict["seq"].as_u64(), dict["time_usec"].as_u64()), (Some(5), Some(9)));
+
+        // A bare message on a tx key: a ground station's ids, a counter, the key's target.
+        let bare = br#"{"mavpackettype":"PING","seq":1}"#;
+        for expected_seq in 0..2 {
+            let frame = maker
+                .frame("p/mavlink", "p/mavlink/2/7/tx", bare)
+                .expect("a frame");
+            let (sysid, compid, seq, _, dict) = parse(d, &frame);
+            assert_eq!((sysid, compid, seq), (DEFAULT_SYSID, DEFAULT_COMPID, expected_seq));
+            assert_eq!(dict["target_system"], 2);
+            assert_eq!(dict["target_component"], 7);
+        }
+
+        // Raw frames pass unchanged.
+        let raw = maker.frame("p/mavlink", "p/mavlink/2/7/tx", &frame).expect("raw");
+        assert_eq!(raw, frame);
+    }
+
+    #[test]
+    fn samples_without_a_frame_are_counted() {
+        let mut maker = FrameMaker::new(dictionaries());
+        let unknown = br#"{"sysid":1,"compid":1,"seq":0,"msg":null,"id":60000,"payload":"00"}"#;
+        let junk: [&[u8]; 4] = [
+            b"not json",
+            unknown,
+            br#"{"mavpackettype":"NOPE"}"#,
+            br#"{"sysid":300,"msg":{"mavpackettype":"PING"}}"#,
+        ];
+        for bytes in junk {
+            assert!(maker.frame("p/mavlink", "p/mavlink/1/1/X", bytes).is_none());
+        }
+        assert_eq!(maker.rejected, 4);
+    }
+
+    #[test]
+    fn keys_name_source_and_message() {
+        assert_eq!(key("f/mavlink", 3, 1, "HEARTBEAT"), "f/mavlink/3/1/HEARTBEAT");
+    }
+}
