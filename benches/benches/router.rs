@@ -18,6 +18,9 @@
 //!
 //! First, the floor: the latency of one loopback hop with no router at all, at the same rate.
 //!
+//! Then a fleet of two: two ferrolink routers in a row, joined by UDP or by Zenoh, PINGs into the
+//! first and a receiving peer on the second (the `zenoh` feature, on by default).
+//!
 //! Last, the I/O model behind the daemon, measured the same way in this process: the runtime's
 //! router over three UDP sockets, driven by a blocking reader thread per socket (what `io::link`
 //! does), by a single-threaded tokio runtime (one epoll loop), and by tokio's multi-threaded
@@ -102,6 +105,11 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn start_ferrolink(ports: &[u16]) -> Option<Router> {
+    let endpoints = ports.iter().map(|p| format!("udpin://127.0.0.1:{p}"));
+    start_ferrolink_with(endpoints.collect())
+}
+
+fn start_ferrolink_with(endpoints: Vec<String>) -> Option<Router> {
     let bin = workspace().join("target/release/ferrolink");
     if !bin.exists() {
         eprintln!(
@@ -112,7 +120,7 @@ fn start_ferrolink(ports: &[u16]) -> Option<Router> {
     }
     let mut child = Command::new(bin)
         .args(["mavlink", "router"])
-        .args(ports.iter().map(|p| format!("udpin://127.0.0.1:{p}")))
+        .args(endpoints)
         .stdout(Stdio::piped())
         .stderr(Stdio::null())
         .spawn()
@@ -401,6 +409,58 @@ fn direct() -> (u64, u64) {
     (percentile(&l, 0.5), percentile(&l, 0.99))
 }
 
+/// Two ferrolink routers in a row, joined by UDP (`udpout` to `udpin`) or by Zenoh (peer mode
+/// over TCP on loopback): PINGs go into the first, a receiving peer sits on the second. Returns
+/// the row (CPU of both routers) or `None` if a router did not start.
+fn two_routers(zenoh: bool, base: u16) -> Option<Row> {
+    let (join_a, join_b) = if zenoh {
+        let z = format!("tcp/127.0.0.1:{}&prefix=bench{base}", base + 3);
+        (
+            format!("zenoh://?mode=peer&listen={z}"),
+            format!("zenoh://?mode=peer&connect={z}"),
+        )
+    } else {
+        (
+            format!("udpout://127.0.0.1:{}", base + 2),
+            format!("udpin://127.0.0.1:{}", base + 2),
+        )
+    };
+    let b = start_ferrolink_with(vec![join_b, format!("udpin://127.0.0.1:{}", base + 1)])?;
+    let a = start_ferrolink_with(vec![format!("udpin://127.0.0.1:{base}"), join_a])?;
+    let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    source.connect(("127.0.0.1", base)).expect("connect");
+    let sink = Sink::new(base + 1, 201);
+    // Zenoh peers meet, the first router's udpout speaks first, every peer says hello.
+    for _ in 0..4 {
+        let _ = source.send(&heartbeat(1));
+        thread::sleep(Duration::from_millis(500));
+    }
+    let _ = sink.take();
+    let cpu =
+        || cpu_time(a.child.id()).unwrap_or_default() + cpu_time(b.child.id()).unwrap_or_default();
+    let before = cpu();
+    let sent = send(&source, 1, 10_000, Duration::from_secs(5));
+    thread::sleep(Duration::from_millis(500));
+    let used = cpu().saturating_sub(before);
+    let mut l = sink.take();
+    l.sort_unstable();
+    let row = Row {
+        name: if zenoh { "Zenoh" } else { "UDP" },
+        six_peers: None,
+        delivered: l.len() as f64 / sent as f64,
+        cpu_per_10k_ms: used.as_secs_f64() * 1e3 * 10_000.0 / l.len().max(1) as f64,
+        p50: percentile(&l, 0.5),
+        p99: percentile(&l, 0.99),
+        max_rate: 0.0,
+        idle_pct: 0.0,
+    };
+    let window = Duration::from_secs(3);
+    send(&source, 1, 100_000, window);
+    thread::sleep(Duration::from_millis(500));
+    let max_rate = sink.take().len() as f64 / window.as_secs_f64();
+    Some(Row { max_rate, ..row })
+}
+
 /// Six peers, one per endpoint and each a system of its own, sending PING broadcasts at a sixth
 /// of 10,000 msg/s for 5 s: the share of the copies owed to the other five that arrived.
 fn six_peers(ports: &[u16]) -> f64 {
@@ -668,6 +728,8 @@ fn main() {
         return;
     }
     println!("machine: {}", machine());
+    // `cargo bench -p ferrolink-bench --bench router -- fleet`: the two-router section only.
+    let only_fleet = std::env::args().any(|a| a == "fleet");
     println!("three UDP endpoints on loopback; PING broadcasts from A to B and C");
     let (p50, p99) = direct();
     println!("one loopback hop without a router, 10k msg/s: latency p50 {p50} µs, p99 {p99} µs");
@@ -678,7 +740,7 @@ fn main() {
         (34560, start_mavlink_routerd),
         (34570, start_mavproxy),
     ];
-    for (i, (base, start)) in starters.into_iter().enumerate() {
+    for (i, (base, start)) in starters.into_iter().enumerate().filter(|_| !only_fleet) {
         let ports = [base, base + 1, base + 2];
         let Some(router) = start(&ports) else {
             continue;
@@ -714,6 +776,10 @@ fn main() {
             r.idle_pct
         );
     }
+    let joined: Vec<Row> = [(false, 34700), (true, 34710)]
+        .into_iter()
+        .filter_map(|(zenoh, base)| two_routers(zenoh, base))
+        .collect();
     let models = [
         Model::Threads,
         Model::TokioCurrentThread,
@@ -721,6 +787,7 @@ fn main() {
     ];
     let model_rows: Vec<Row> = models
         .iter()
+        .filter(|_| !only_fleet)
         .enumerate()
         .map(|(i, &m)| {
             let base = 34600 + 10 * i as u16;
@@ -753,6 +820,32 @@ fn main() {
             r.p99,
             r.max_rate,
             r.idle_pct
+        );
+    }
+    println!(
+        "\ntwo ferrolink routers in a row, PINGs into the first, a peer on the second; joined by:"
+    );
+    println!(
+        "\n| joined by | delivered at 10k msg/s | CPU per 10,000 msgs, both routers | latency p50 | p99 | most forwarded to one peer |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|");
+    for r in &joined {
+        println!(
+            "| {} | {:.2} % | {:.1} ms | {} µs | {} µs | {:.0} msg/s |",
+            r.name,
+            100.0 * r.delivered,
+            r.cpu_per_10k_ms,
+            r.p50,
+            r.p99,
+            r.max_rate
+        );
+    }
+    if let [udp, zenoh] = &joined[..] {
+        println!(
+            "Zenoh over UDP: added latency p50 {} µs, p99 {} µs; most forwarded {:.2}x",
+            zenoh.p50 as i64 - udp.p50 as i64,
+            zenoh.p99 as i64 - udp.p99 as i64,
+            zenoh.max_rate / udp.max_rate.max(1.0)
         );
     }
 }

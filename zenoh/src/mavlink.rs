@@ -22,9 +22,11 @@
 //! the same header and payload; an id the dictionaries lack cannot be re-encoded and is counted
 //! as rejected.
 
+use std::collections::hash_map::Entry;
+use std::collections::HashMap;
 use std::io;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, PoisonError};
 use std::thread;
 use std::time::{Duration, Instant};
 
@@ -176,7 +178,11 @@ pub fn open(
     })
 }
 
-/// The link's sender: puts every frame routing hands it on its key.
+/// The most keys the sender keeps a declared publisher for; past that, the table starts over.
+const MAX_PUBLISHERS: usize = 4096;
+
+/// The link's sender: puts every frame routing hands it on its key, through a publisher
+/// declared once per key.
 fn publisher(
     session: &zenoh::Session,
     root: &str,
@@ -184,16 +190,31 @@ fn publisher(
     dictionaries: Dictionaries,
 ) -> Sender {
     let (session, root) = (session.clone(), root.to_owned());
+    let publishers = Mutex::new(HashMap::<(u8, u8, u32), zenoh::pubsub::Publisher<'static>>::new());
     Sender::from_fn(move |bytes| {
         let frame = AnyFrame::new_checked(bytes)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, format!("{e:?}")))?;
         let (sysid, compid, id) = (frame.sysid(), frame.compid(), frame.msg_id());
-        let key = match find_meta(dictionaries.table, id) {
-            Some(meta) => key(&root, sysid, compid, meta.name),
-            None => key(&root, sysid, compid, &format!("UNKNOWN_{id}")),
+        let mut publishers = publishers.lock().unwrap_or_else(PoisonError::into_inner);
+        if publishers.len() >= MAX_PUBLISHERS {
+            publishers.clear();
+        }
+        let publisher = match publishers.entry((sysid, compid, id)) {
+            Entry::Occupied(e) => e.into_mut(),
+            Entry::Vacant(e) => {
+                let key = match find_meta(dictionaries.table, id) {
+                    Some(meta) => key(&root, sysid, compid, meta.name),
+                    None => key(&root, sysid, compid, &format!("UNKNOWN_{id}")),
+                };
+                let declared = session
+                    .declare_publisher(key)
+                    .wait()
+                    .map_err(|e| io::Error::other(e.to_string()))?;
+                e.insert(declared)
+            }
         };
         let put = match encoding {
-            Encoding::Raw => session.put(key, bytes.to_vec()).wait(),
+            Encoding::Raw => publisher.put(bytes.to_vec()).wait(),
             Encoding::Json => {
                 let (members, _) = dictionaries.decoder.frame_json_members(
                     sysid,
@@ -202,7 +223,7 @@ fn publisher(
                     id,
                     frame.payload(),
                 );
-                session.put(key, format!("{{{members}}}")).wait()
+                publisher.put(format!("{{{members}}}")).wait()
             }
         };
         put.map_err(|e| io::Error::other(e.to_string()))
@@ -350,7 +371,10 @@ mod tests {
             .expect("a frame");
         let (sysid, compid, seq, id, dict) = parse(d, &frame);
         assert_eq!((sysid, compid, seq, id), (3, 1, 77, 4));
-        assert_eq!((dict["seq"].as_u64(), dict["time_usec"].as_u64()), (Some(5), Some(9)));
+        assert_eq!(
+            (dict["seq"].as_u64(), dict["time_usec"].as_u64()),
+            (Some(5), Some(9))
+        );
 
         // A bare message on a tx key: a ground station's ids, a counter, the key's target.
         let bare = br#"{"mavpackettype":"PING","seq":1}"#;
@@ -359,13 +383,18 @@ mod tests {
                 .frame("p/mavlink", "p/mavlink/2/7/tx", bare)
                 .expect("a frame");
             let (sysid, compid, seq, _, dict) = parse(d, &frame);
-            assert_eq!((sysid, compid, seq), (DEFAULT_SYSID, DEFAULT_COMPID, expected_seq));
+            assert_eq!(
+                (sysid, compid, seq),
+                (DEFAULT_SYSID, DEFAULT_COMPID, expected_seq)
+            );
             assert_eq!(dict["target_system"], 2);
             assert_eq!(dict["target_component"], 7);
         }
 
         // Raw frames pass unchanged.
-        let raw = maker.frame("p/mavlink", "p/mavlink/2/7/tx", &frame).expect("raw");
+        let raw = maker
+            .frame("p/mavlink", "p/mavlink/2/7/tx", &frame)
+            .expect("raw");
         assert_eq!(raw, frame);
     }
 
@@ -387,6 +416,9 @@ mod tests {
 
     #[test]
     fn keys_name_source_and_message() {
-        assert_eq!(key("f/mavlink", 3, 1, "HEARTBEAT"), "f/mavlink/3/1/HEARTBEAT");
+        assert_eq!(
+            key("f/mavlink", 3, 1, "HEARTBEAT"),
+            "f/mavlink/3/1/HEARTBEAT"
+        );
     }
 }
