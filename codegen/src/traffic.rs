@@ -612,6 +612,70 @@ impl PayloadDecoder<'_> {
     }
 }
 
+/// What a frame made from JSON takes where the JSON says nothing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameDefaults {
+    /// The sender's system id.
+    pub sysid: u8,
+    /// The sender's component id.
+    pub compid: u8,
+    /// The sequence number.
+    pub seq: u8,
+    /// `target_system` and `target_component`, for messages that have them.
+    pub target: Option<(u8, u8)>,
+}
+
+impl PayloadDecoder<'_> {
+    /// A JSON object as an unsigned MAVLink 2 frame: either the envelope
+    /// `{"sysid":..,"compid":..,"seq":..,"msg":{<to_dict() form>}}` that
+    /// [`PayloadDecoder::frame_json_members`] writes, or the message alone; whatever is left out
+    /// comes from `defaults`. An unknown id (`"msg": null`) cannot be re-encoded and is an error.
+    pub fn frame_from_json(
+        &self,
+        value: &serde_json::Value,
+        defaults: FrameDefaults,
+    ) -> Result<Vec<u8>, String> {
+        use ferrolink_runtime::mavlink::{v2, Header};
+        use serde_json::Value as Json;
+        let (envelope, msg) = match value.get("msg") {
+            Some(Json::Null) => {
+                return Err("an unknown id (\"msg\": null) cannot be re-encoded".into());
+            }
+            Some(msg) => (value, msg),
+            None => (&Json::Null, value),
+        };
+        let targets: Vec<(&str, u64)> = defaults
+            .target
+            .map(|(s, c)| {
+                vec![
+                    ("target_system", u64::from(s)),
+                    ("target_component", u64::from(c)),
+                ]
+            })
+            .unwrap_or_default();
+        let (id, payload) = self.from_dict(msg, &targets)?;
+        let crc_extra = self.message(id).map(|m| m.crc_extra).unwrap_or_default();
+        let number = |name: &str, default: u8| -> Result<u8, String> {
+            match envelope.get(name) {
+                None => Ok(default),
+                Some(v) => v
+                    .as_u64()
+                    .and_then(|v| u8::try_from(v).ok())
+                    .ok_or_else(|| format!("\"{name}\" must be 0 to 255")),
+            }
+        };
+        let header = Header::new(
+            number("seq", defaults.seq)?,
+            number("sysid", defaults.sysid)?,
+            number("compid", defaults.compid)?,
+        );
+        let mut out = [0u8; v2::MAX_FRAME_LEN];
+        let n = v2::encode_raw(header, id, crc_extra, &payload, &mut out)
+            .map_err(|e| format!("{e:?}"))?;
+        Ok(out[..n].to_vec())
+    }
+}
+
 /// Writes one field's JSON value into its bytes.
 fn put_field(field: &Field, value: &serde_json::Value, out: &mut [u8]) -> Result<(), String> {
     use serde_json::Value as Json;

@@ -30,11 +30,11 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use ferrolink_codegen::traffic::PayloadDecoder;
+use ferrolink_codegen::traffic::{FrameDefaults, PayloadDecoder};
 use ferrolink_io::link::{self, Event, Sender};
 use ferrolink_io::mavlink::router::{Attached, Status};
 use ferrolink_runtime::mavlink::router::LinkConfig;
-use ferrolink_runtime::mavlink::{find_meta, v2, AnyFrame, Header, MessageMeta};
+use ferrolink_runtime::mavlink::{find_meta, AnyFrame, MessageMeta};
 use zenoh::sample::Locality;
 use zenoh::Wait;
 
@@ -276,58 +276,34 @@ impl FrameMaker {
 
     /// A JSON sample as an unsigned MAVLink 2 frame.
     fn json_frame(&mut self, root: &str, key: &str, bytes: &[u8]) -> Result<Vec<u8>, String> {
-        use serde_json::Value;
-        let value: Value =
+        let value: serde_json::Value =
             serde_json::from_slice(bytes).map_err(|e| format!("neither a frame nor JSON: {e}"))?;
-        let (envelope, msg) = match value.get("msg") {
-            Some(Value::Null) => {
-                return Err("an unknown id (\"msg\": null) cannot be re-encoded".into());
-            }
-            Some(msg) => (&value, msg),
-            None => (&Value::Null, &value),
-        };
         // `<root>/<sysid>/<compid>/tx`: the key names the target.
-        let mut defaults = Vec::new();
         let parts: Vec<&str> = key
             .strip_prefix(root)
             .unwrap_or(key)
             .trim_start_matches('/')
             .split('/')
             .collect();
-        if let [sysid, compid, "tx"] = parts[..] {
-            if let (Ok(s), Ok(c)) = (sysid.parse::<u8>(), compid.parse::<u8>()) {
-                defaults.push(("target_system", u64::from(s)));
-                defaults.push(("target_component", u64::from(c)));
-            }
+        let target = match parts[..] {
+            [sysid, compid, "tx"] => sysid.parse().ok().zip(compid.parse().ok()),
+            _ => None,
+        };
+        let defaults = FrameDefaults {
+            sysid: DEFAULT_SYSID,
+            compid: DEFAULT_COMPID,
+            seq: self.seq,
+            target,
+        };
+        let frame = self
+            .dictionaries
+            .decoder
+            .frame_from_json(&value, defaults)?;
+        // The counter numbers the samples that bring no sequence number of their own.
+        if value.get("msg").is_none() || value.get("seq").is_none() {
+            self.seq = self.seq.wrapping_add(1);
         }
-        let (id, payload) = self.dictionaries.decoder.from_dict(msg, &defaults)?;
-        let meta = find_meta(self.dictionaries.table, id)
-            .ok_or_else(|| format!("message id {id} has no CRC_EXTRA here"))?;
-        let number = |name: &str, default: u8| -> Result<u8, String> {
-            match envelope.get(name) {
-                None => Ok(default),
-                Some(v) => v
-                    .as_u64()
-                    .and_then(|v| u8::try_from(v).ok())
-                    .ok_or_else(|| format!("\"{name}\" must be 0 to 255")),
-            }
-        };
-        let seq = match envelope.get("seq") {
-            None => {
-                self.seq = self.seq.wrapping_add(1);
-                self.seq.wrapping_sub(1)
-            }
-            Some(_) => number("seq", 0)?,
-        };
-        let header = Header::new(
-            seq,
-            number("sysid", DEFAULT_SYSID)?,
-            number("compid", DEFAULT_COMPID)?,
-        );
-        let mut out = [0u8; v2::MAX_FRAME_LEN];
-        let n = v2::encode_raw(header, id, meta.crc_extra, &payload, &mut out)
-            .map_err(|e| format!("{e:?}"))?;
-        Ok(out[..n].to_vec())
+        Ok(frame)
     }
 }
 
