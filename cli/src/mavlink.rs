@@ -128,7 +128,7 @@ fn zenoh_endpoints(
 }
 
 #[cfg(not(feature = "zenoh"))]
-fn without_zenoh(uri: &str) -> String {
+pub fn without_zenoh(uri: &str) -> String {
     format!(
         "{uri}: this ferrolink was built without Zenoh\n  hint: build it with the default features \
          (cargo build --release -p ferrolink-cli)"

@@ -75,9 +75,10 @@ pub enum Command {
 /// Interface and reporting options shared by `bridge` and `log`.
 #[derive(clap::Args)]
 pub struct Links {
-    /// An interface URI (repeat for more).
-    #[arg(short = 'u', long = "uri", value_name = "URI", required = true)]
-    uris: Vec<ferrolink_io::Interface>,
+    /// An interface URI (repeat for more): serial://, udp://, tcp://, tcp-listen://, pty://,
+    /// or zenoh://?mode=peer&listen=tcp/HOST:PORT[&connect=...][&encoding=raw|json][&prefix=...]
+    #[arg(short = 'u', long = "uri", value_name = "URI", required = true, value_parser = parse_uri)]
+    uris: Vec<UriArg>,
     /// A mirror interface: it gets every frame and teaches the routing table nothing.
     #[arg(short = 'm', long = "mirror", value_name = "URI")]
     mirrors: Vec<ferrolink_io::Interface>,
@@ -107,18 +108,85 @@ fn seconds(s: Option<f64>) -> Result<Option<std::time::Duration>, String> {
         .transpose()
 }
 
+/// An interface: one the link layer opens, or a Zenoh one.
+#[derive(Clone)]
+enum UriArg {
+    Link(ferrolink_io::Interface),
+    Zenoh(String),
+}
+
+fn parse_uri(uri: &str) -> Result<UriArg, String> {
+    if uri.starts_with("zenoh:") {
+        return Ok(UriArg::Zenoh(uri.to_owned()));
+    }
+    uri.parse().map(UriArg::Link).map_err(|e| e.to_string())
+}
+
 impl Links {
-    fn config(self) -> Result<ferrolink_io::bridge::Config, String> {
-        Ok(ferrolink_io::bridge::Config {
-            interfaces: self.uris,
+    /// The bridge's configuration and its Zenoh interfaces.
+    fn config(
+        self,
+    ) -> Result<
+        (
+            ferrolink_io::bridge::Config,
+            Vec<ferrolink_io::bridge::Attached>,
+        ),
+        String,
+    > {
+        let (mut interfaces, mut zenoh) = (Vec::new(), Vec::new());
+        for uri in self.uris {
+            match uri {
+                UriArg::Link(interface) => interfaces.push(interface),
+                UriArg::Zenoh(uri) => zenoh.push(uri),
+            }
+        }
+        let dialects = crate::dialect::Dialects::own()?;
+        let messages = dialects.table;
+        let attached = zenoh_interfaces(&zenoh, dialects)?;
+        let config = ferrolink_io::bridge::Config {
+            interfaces,
             mirrors: self.mirrors,
             stats_every: seconds(self.stats)?,
             run_for: seconds(self.run_for)?,
             json: self.json,
             commands: !self.no_commands,
-            messages: crate::dialect::Dialects::own()?.table,
+            messages,
             ..Default::default()
+        };
+        Ok((config, attached))
+    }
+}
+
+/// The bridge's Zenoh interfaces, their payloads named and written as JSON with `dialects`.
+#[cfg(feature = "zenoh")]
+fn zenoh_interfaces(
+    uris: &[String],
+    dialects: crate::dialect::Dialects,
+) -> Result<Vec<ferrolink_io::bridge::Attached>, String> {
+    if uris.is_empty() {
+        return Ok(Vec::new());
+    }
+    // The interface's threads live as long as the process; so do the dictionaries.
+    let ir: &'static ferrolink_codegen::ir::Ir = Box::leak(Box::new(dialects.ir));
+    let decoder = Box::leak(Box::new(ferrolink_codegen::traffic::PayloadDecoder::new(
+        ir,
+    )));
+    uris.iter()
+        .map(|uri| {
+            let uri: ferrolink_zenoh::ZenohUri = uri.parse().map_err(|e| format!("{e}"))?;
+            Ok(ferrolink_zenoh::ndlcom::attached(uri, decoder))
         })
+        .collect()
+}
+
+#[cfg(not(feature = "zenoh"))]
+fn zenoh_interfaces(
+    uris: &[String],
+    _: crate::dialect::Dialects,
+) -> Result<Vec<ferrolink_io::bridge::Attached>, String> {
+    match uris.first() {
+        None => Ok(Vec::new()),
+        Some(uri) => Err(crate::mavlink::without_zenoh(uri)),
     }
 }
 
@@ -159,6 +227,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             ping_every,
             log,
         } => {
+            let (config, attached) = links.config()?;
             let config = ferrolink_io::bridge::Config {
                 own_ids,
                 cut_through,
@@ -170,18 +239,19 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 ping,
                 ping_every: seconds(Some(ping_every))?.unwrap_or_default(),
                 log,
-                ..links.config()?
+                ..config
             };
-            ferrolink_io::bridge::run(config)?;
+            ferrolink_io::bridge::run(config, attached)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Log { links, out } => {
+            let (config, attached) = links.config()?;
             let config = ferrolink_io::bridge::Config {
                 log: Some(out),
                 log_only: true,
-                ..links.config()?
+                ..config
             };
-            ferrolink_io::bridge::run(config)?;
+            ferrolink_io::bridge::run(config, attached)?;
             Ok(ExitCode::SUCCESS)
         }
     }

@@ -238,3 +238,59 @@ fn a_tcp_server_interface_serves_every_client() {
     assert_eq!(downs[0]["interface"], second);
     assert_eq!(last(&h, "routes")["routes"], serde_json::json!([]));
 }
+
+/// Two bridges joined only by Zenoh (peer mode on loopback), raw and JSON: one pings the other.
+#[cfg(feature = "zenoh")]
+#[test]
+fn two_bridges_over_zenoh() {
+    for encoding in ["raw", "json"] {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .map(|a| a.port())
+            .expect("a free port");
+        let prefix = format!("ndl{port}{encoding}");
+        let zenoh = |role: &str| {
+            format!("zenoh://?mode=peer&{role}=tcp/127.0.0.1:{port}&encoding={encoding}&prefix={prefix}")
+        };
+        let b = bridge(&[
+            s("-u"),
+            zenoh("listen"),
+            s("-i"),
+            s(2),
+            s("--run-for"),
+            s(3.5),
+        ]);
+        sleep(Duration::from_millis(500));
+        let a = bridge(&[
+            s("-u"),
+            zenoh("connect"),
+            s("-i"),
+            s(1),
+            s("--ping"),
+            s(2),
+            s("--ping-every"),
+            s(0.1),
+            s("--run-for"),
+            s(2.5),
+        ]);
+        let (a, b) = (events(a), events(b));
+        let replies = a.iter().filter(|e| e["event"] == "ping_reply").count() as u64;
+        let pings = stat(&a, 0, "tx_frames");
+        assert!(
+            replies >= 10,
+            "{encoding}: {replies} replies to {pings} pings"
+        );
+        assert!(replies <= pings);
+        assert!(a
+            .iter()
+            .all(|e| e["event"] != "ping_reply" || e["from"] == 2));
+        assert_eq!(
+            stat(&b, 0, "tx_frames"),
+            stat(&a, 0, "rx_frames"),
+            "{encoding}"
+        );
+        // The interface is named by its canonical URI.
+        let name = &last(&b, "stats")["interfaces"][0]["interface"];
+        assert_eq!(name, &zenoh("listen"), "{encoding}");
+    }
+}

@@ -14,7 +14,7 @@
 //! thin wrappers around [`run`].
 
 use std::collections::{BTreeMap, HashMap};
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 use std::fs::File;
 use std::io::{self, BufRead, BufWriter, Write};
 use std::path::PathBuf;
@@ -134,10 +134,29 @@ fn unix_us() -> u64 {
         .map_or(0, |d| d.as_micros() as u64)
 }
 
-/// Runs the bridge until `run_for` elapses or `q` is read.
-pub fn run(config: Config) -> io::Result<()> {
+/// An interface not opened from an [`Interface`] URI (Zenoh, in `ferrolink-zenoh`): its name,
+/// and how to start it. It comes after the interfaces and mirrors.
+pub struct Attached {
+    /// The interface's name in statistics and routes.
+    pub name: String,
+    /// Starts it.
+    pub open: link::Open,
+}
+
+impl fmt::Debug for Attached {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Attached")
+            .field("name", &self.name)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Runs the bridge on the configured interfaces and the `attached` ones until `run_for` elapses
+/// or `q` is read.
+pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
     let endpoints: Vec<&Interface> = config.interfaces.iter().chain(&config.mirrors).collect();
-    if endpoints.is_empty() || endpoints.len() > MAX_INTERFACES {
+    let count = endpoints.len() + attached.len();
+    if count == 0 || count > MAX_INTERFACES {
         return Err(io::Error::new(
             io::ErrorKind::InvalidInput,
             format!("give 1 to {MAX_INTERFACES} interfaces (mirrors included)"),
@@ -163,29 +182,20 @@ pub fn run(config: Config) -> io::Result<()> {
         if i >= config.interfaces.len() {
             node.router_mut().set_mirror(i, true);
         }
-        let tx = tx.clone();
-        let sink: link::Sink = Arc::new(move |event| {
-            let event = match event {
-                link::Event::Up {
-                    endpoint,
-                    peer,
-                    name,
-                    sender,
-                } => Event::Up {
-                    endpoint,
-                    peer,
-                    name,
-                    sender,
-                },
-                link::Event::Rx { peer, bytes, .. } => Event::Rx(peer, bytes.to_vec()),
-                link::Event::Down { peer, why } => Event::Down(peer, why),
-            };
-            tx.send(event).is_ok()
-        });
         let uri = endpoint.to_string();
-        let handle = link::open(i, &endpoint.link(), link::Options::default(), sink)
+        let handle = link::open(i, &endpoint.link(), link::Options::default(), sink(&tx))
             .map_err(|e| io::Error::new(e.kind(), format!("{uri}: {e}")))?;
         handles.push(handle);
+    }
+    let mut uris: Vec<String> = endpoints.iter().map(ToString::to_string).collect();
+    let names = uris.clone();
+    let mut guards = Vec::new();
+    for (i, endpoint) in (endpoints.len()..).zip(attached) {
+        uris.push(endpoint.name);
+        let sink = sink(&tx);
+        let names = names.clone();
+        let status: link::Status = Arc::new(move || json!({ "interfaces": names }));
+        guards.push((endpoint.open)(i, sink, status)?);
     }
     if config.cut_through {
         for from in 0..MAX_INTERFACES {
@@ -214,7 +224,6 @@ pub fn run(config: Config) -> io::Result<()> {
         )),
         None => None,
     };
-    let uris: Vec<String> = endpoints.iter().map(ToString::to_string).collect();
     let mut program = Program {
         slots: uris
             .iter()
@@ -244,7 +253,31 @@ pub fn run(config: Config) -> io::Result<()> {
     }
     let result = program.main_loop(rx);
     drop(handles);
+    drop(guards);
     result
+}
+
+/// A sink that hands the link layer's events to the main loop.
+fn sink(tx: &mpsc::Sender<Event>) -> link::Sink {
+    let tx = tx.clone();
+    Arc::new(move |event| {
+        let event = match event {
+            link::Event::Up {
+                endpoint,
+                peer,
+                name,
+                sender,
+            } => Event::Up {
+                endpoint,
+                peer,
+                name,
+                sender,
+            },
+            link::Event::Rx { peer, bytes, .. } => Event::Rx(peer, bytes.to_vec()),
+            link::Event::Down { peer, why } => Event::Down(peer, why),
+        };
+        tx.send(event).is_ok()
+    })
 }
 
 impl Program {
@@ -373,7 +406,9 @@ impl Program {
                 }
             }
         };
-        let mirror = endpoint >= self.config.interfaces.len();
+        let mirror = (self.config.interfaces.len()
+            ..self.config.interfaces.len() + self.config.mirrors.len())
+            .contains(&endpoint);
         self.node.router_mut().set_mirror(slot, mirror);
         self.slots[slot].sender = Some(sender);
         self.slots[slot].was_up = true;

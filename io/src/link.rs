@@ -256,6 +256,15 @@ pub enum Event<'a> {
 /// stops the thread that called (nobody listens any more).
 pub type Sink = Arc<dyn Fn(Event<'_>) -> bool + Send + Sync>;
 
+/// What an endpoint opened outside this module may ask of the program it reports to (a router's
+/// links and the systems behind them, say), as JSON.
+pub type Status = Arc<dyn Fn() -> serde_json::Value + Send + Sync>;
+
+/// Starts an endpoint opened outside this module (Zenoh, in `ferrolink-zenoh`) as endpoint
+/// number `index`, reporting to the sink the way [`open`] does; what it returns keeps it running
+/// until dropped.
+pub type Open = Box<dyn FnOnce(usize, Sink, Status) -> io::Result<Box<dyn Send>> + Send>;
+
 /// Writes to one peer. Cloning shares the socket.
 #[derive(Debug, Clone)]
 pub struct Sender(SenderKind);

@@ -1,8 +1,8 @@
 //! Ferrolink over Zenoh: fleets of routers joined by a Zenoh network.
 //!
 //! A crate of its own, so that nothing else compiles Zenoh. It gives the MAVLink router daemon
-//! of `ferrolink-io` a `zenoh://` endpoint ([`mavlink`]), and lists the routers on a network
-//! ([`fleet`]).
+//! of `ferrolink-io` a `zenoh://` endpoint ([`mavlink`]), the NDLCom bridge a `zenoh://`
+//! interface ([`ndlcom`]), and lists the routers on a network ([`fleet`]).
 //!
 //! Key expressions, under a prefix (`ferrolink` by default):
 //!
@@ -12,6 +12,7 @@
 //! | `<prefix>/mavlink/<sysid>/<compid>/UNKNOWN_<id>` | the same, for an id the router does not know |
 //! | `<prefix>/mavlink/<sysid>/<compid>/tx` | commands into the fleet, for system `<sysid>` |
 //! | `<prefix>/fleet/<zenoh id>` | each router's links and the systems behind them (a queryable) |
+//! | `<prefix>/ndlcom/<sender>/<receiver>/<MESSAGE_NAME>` | every frame an NDLCom bridge sends to Zenoh ([`ndlcom`]) |
 //!
 //! So `ferrolink/mavlink/3/**` is one vehicle, and `ferrolink/*/*/*/HEARTBEAT` every heartbeat.
 
@@ -19,6 +20,7 @@
 
 pub mod fleet;
 pub mod mavlink;
+pub mod ndlcom;
 pub mod uri;
 
 pub use uri::{Encoding, Mode, UriError, ZenohUri};

@@ -31,8 +31,9 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use ferrolink_codegen::traffic::{FrameDefaults, PayloadDecoder};
+use ferrolink_io::link::Status;
 use ferrolink_io::link::{self, Event, Sender};
-use ferrolink_io::mavlink::router::{Attached, Status};
+use ferrolink_io::mavlink::router::Attached;
 use ferrolink_runtime::mavlink::router::LinkConfig;
 use ferrolink_runtime::mavlink::{find_meta, AnyFrame, MessageMeta};
 use zenoh::sample::Locality;

@@ -46,20 +46,13 @@ pub struct Config {
     pub peer_expiry: Option<Duration>,
 }
 
-/// What an [`Attached`] endpoint may ask of the router: its links and the systems behind them,
-/// as `{"links": [NAME, ...], "systems": [{"sysid": .., "compid": .., "link": NAME}, ...]}`.
-pub type Status = Arc<dyn Fn() -> serde_json::Value + Send + Sync>;
-
-/// Starts an attached endpoint as endpoint number `index`, reporting to the sink; what it returns
-/// keeps it running until dropped.
-pub type Open = Box<dyn FnOnce(usize, link::Sink, Status) -> io::Result<Box<dyn Send>> + Send>;
-
 /// An endpoint the daemon does not open from a [`link`] URI.
 pub struct Attached {
     /// The configuration of its links.
     pub link: LinkConfig,
-    /// Starts it.
-    pub open: Open,
+    /// Starts it; its status is the router's links and the systems behind them,
+    /// `{"links": [NAME, ...], "systems": [{"sysid": .., "compid": .., "link": NAME}, ...]}`.
+    pub open: link::Open,
 }
 
 impl std::fmt::Debug for Attached {
@@ -244,7 +237,7 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
             true
         });
         let shared = state.clone();
-        let status: Status = Arc::new(move || lock(&shared).status());
+        let status: link::Status = Arc::new(move || lock(&shared).status());
         guards.push((endpoint.open)(i, sink, status)?);
     }
     {

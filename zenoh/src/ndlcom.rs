@@ -1,0 +1,294 @@
+//! The NDLCom bridge's Zenoh interface: one interface of the bridge whose far side is every
+//! other bridge and client on the same Zenoh network.
+//!
+//! - **Out.** Every frame the bridge sends to this interface is put on
+//!   `<prefix>/ndlcom/<sender>/<receiver>/<MESSAGE_NAME>` (the name of the payload's message id
+//!   in the dictionary; `UNKNOWN_<id>` if it has none, `EMPTY` for an empty payload), as the
+//!   encoded frame (flags, escaping and FCS, as on a serial line) or as JSON:
+//!   `{"sender":..,"receiver":..,"counter":..,"msg":{<to_dict() form>}}`, or `"msg":null,
+//!   "payload":"<hex>"` for a payload the dictionary does not know.
+//! - **In.** Samples other sessions put under `<prefix>/ndlcom/**` are frames received on this
+//!   interface, encoded (first byte 0x7E) or JSON (`counter` defaults to 0). The bridge's own puts
+//!   never come back, and the bridge never sends a frame back to the interface it came from.
+
+use std::io;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use ferrolink_codegen::traffic::PayloadDecoder;
+use ferrolink_io::bridge::Attached;
+use ferrolink_io::link::{self, Event, Sender};
+use ferrolink_runtime::ndlcom::{self, parser::Parser, storage_len, Header, FLAG};
+use zenoh::sample::Locality;
+use zenoh::Wait;
+
+use crate::uri::{Encoding, ZenohUri};
+
+/// How often the interface's threads look up to notice a shutdown.
+const POLL: Duration = Duration::from_millis(200);
+
+type FrameParser = Parser<[u8; storage_len(ndlcom::MAX_PAYLOAD_LEN)]>;
+
+/// The Zenoh interface of `uri` as an interface the bridge attaches; `decoder` names payloads
+/// and writes and reads JSON.
+pub fn attached(uri: ZenohUri, decoder: &'static PayloadDecoder<'static>) -> Attached {
+    Attached {
+        name: uri.to_string(),
+        open: Box::new(move |index, sink, _status| {
+            let running = open(index, &uri, decoder, sink)?;
+            Ok(Box::new(running) as Box<dyn Send>)
+        }),
+    }
+}
+
+/// A running interface; dropping it stops its thread and closes the session.
+#[derive(Debug)]
+pub struct Running {
+    session: zenoh::Session,
+    stop: Arc<AtomicBool>,
+    thread: Option<thread::JoinHandle<()>>,
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        let _ = self.session.close().wait();
+    }
+}
+
+/// The name a payload is published under.
+fn message_name(decoder: &PayloadDecoder<'_>, payload: &[u8]) -> String {
+    match payload.first() {
+        None => "EMPTY".into(),
+        Some(&id) => decoder
+            .message(u32::from(id))
+            .map_or_else(|| format!("UNKNOWN_{id}"), |m| m.name.wire.clone()),
+    }
+}
+
+/// A frame as JSON.
+pub fn frame_json(decoder: &PayloadDecoder<'_>, header: &Header, payload: &[u8]) -> String {
+    let msg = payload
+        .split_first()
+        .and_then(|(&id, body)| decoder.to_dict(u32::from(id), body))
+        .map_or_else(
+            || format!("null,\"payload\":\"{}\"", hex::encode(payload)),
+            |dict| dict.to_string(),
+        );
+    format!(
+        "{{\"sender\":{},\"receiver\":{},\"counter\":{},\"msg\":{msg}}}",
+        header.sender, header.receiver, header.counter
+    )
+}
+
+/// A JSON sample as an encoded NDLCom frame.
+pub fn frame_from_json(decoder: &PayloadDecoder<'_>, bytes: &[u8]) -> Result<Vec<u8>, String> {
+    let value: serde_json::Value =
+        serde_json::from_slice(bytes).map_err(|e| format!("neither a frame nor JSON: {e}"))?;
+    let number = |name: &str, default: Option<u8>| -> Result<u8, String> {
+        match value.get(name) {
+            None => default.ok_or_else(|| format!("\"{name}\" is missing")),
+            Some(v) => v
+                .as_u64()
+                .and_then(|v| u8::try_from(v).ok())
+                .ok_or_else(|| format!("\"{name}\" must be 0 to 255")),
+        }
+    };
+    let msg = value.get("msg").ok_or("\"msg\" is missing")?;
+    if msg.is_null() {
+        return Err(
+            "a payload the dictionary does not know (\"msg\": null) is not re-encoded".into(),
+        );
+    }
+    let (id, body) = decoder.from_dict(msg, &[])?;
+    let id = u8::try_from(id).map_err(|_| format!("message id {id} does not fit NDLCom's byte"))?;
+    let mut payload = vec![id];
+    payload.extend_from_slice(&body);
+    let length = u8::try_from(payload.len()).map_err(|_| "the payload is too long".to_owned())?;
+    let header = Header {
+        receiver: number("receiver", None)?,
+        sender: number("sender", None)?,
+        counter: number("counter", Some(0))?,
+        length,
+    };
+    let mut out = [0u8; ndlcom::MAX_FRAME_LEN];
+    let n = ndlcom::encode(&header, &payload, &mut out).map_err(|e| format!("{e:?}"))?;
+    Ok(out[..n].to_vec())
+}
+
+/// Opens the session, reports the one peer up to `sink`, and starts the subscriber.
+pub fn open(
+    index: usize,
+    uri: &ZenohUri,
+    decoder: &'static PayloadDecoder<'static>,
+    sink: link::Sink,
+) -> io::Result<Running> {
+    let name = uri.to_string();
+    let fail = |e: &dyn std::fmt::Display| io::Error::other(format!("{name}: {e}"));
+    let config = uri.config().map_err(|e| fail(&e))?;
+    let session = zenoh::open(config).wait().map_err(|e| fail(&e))?;
+    let root = format!("{}/ndlcom", uri.prefix);
+    let subscriber = session
+        .declare_subscriber(format!("{root}/**"))
+        .allowed_origin(Locality::Remote)
+        .wait()
+        .map_err(|e| fail(&e))?;
+    let peer = link::next_peer();
+    let up = Event::Up {
+        endpoint: index,
+        peer,
+        name: name.clone(),
+        sender: publisher(&session, &root, uri.encoding, decoder),
+    };
+    if !sink(up) {
+        return Err(fail(&"nobody listens for events"));
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    let thread = {
+        let stop = stop.clone();
+        thread::Builder::new()
+            .name("zenoh-ndlcom".into())
+            .spawn(move || {
+                let (mut rejected, mut last_report) = (0u64, None::<Instant>);
+                while !stop.load(Ordering::Relaxed) {
+                    let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {
+                        continue;
+                    };
+                    let bytes = sample.payload().to_bytes();
+                    let frame = if bytes.first() == Some(&FLAG) {
+                        Ok(bytes.to_vec())
+                    } else {
+                        frame_from_json(decoder, &bytes)
+                    };
+                    let frame = match frame {
+                        Ok(frame) => frame,
+                        Err(e) => {
+                            rejected += 1;
+                            let now = Instant::now();
+                            if last_report
+                                .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
+                            {
+                                last_report = Some(now);
+                                eprintln!(
+                                    "zenoh: sample on {} rejected ({rejected} so far): {e}",
+                                    sample.key_expr()
+                                );
+                            }
+                            continue;
+                        }
+                    };
+                    let rx = Event::Rx {
+                        peer,
+                        bytes: &frame,
+                        at: Instant::now(),
+                    };
+                    if !sink(rx) {
+                        return;
+                    }
+                }
+            })?
+    };
+    Ok(Running {
+        session,
+        stop,
+        thread: Some(thread),
+    })
+}
+
+/// The interface's sender: the bridge hands it encoded bytes (one or more frames); each frame is
+/// put on its key.
+fn publisher(
+    session: &zenoh::Session,
+    root: &str,
+    encoding: Encoding,
+    decoder: &'static PayloadDecoder<'static>,
+) -> Sender {
+    let (session, root) = (session.clone(), root.to_owned());
+    let parser = Mutex::new(Box::new(FrameParser::new(
+        [0; storage_len(ndlcom::MAX_PAYLOAD_LEN)],
+    )));
+    Sender::from_fn(move |bytes| {
+        let mut parser = parser.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut result = Ok(());
+        parser.feed_all(bytes, |frame| {
+            let header = frame.header();
+            let payload = frame.payload();
+            let key = format!(
+                "{root}/{}/{}/{}",
+                header.sender,
+                header.receiver,
+                message_name(decoder, payload)
+            );
+            let put = match encoding {
+                Encoding::Raw => {
+                    // The parser hands frames unescaped; the sample is the frame as on the wire.
+                    let mut out = [0u8; ndlcom::MAX_FRAME_LEN];
+                    match ndlcom::encode(&header, payload, &mut out) {
+                        Ok(n) => session.put(key, out[..n].to_vec()).wait(),
+                        Err(e) => Err(format!("{e:?}").into()),
+                    }
+                }
+                Encoding::Json => session
+                    .put(key, frame_json(decoder, &header, payload))
+                    .wait(),
+            };
+            if let Err(e) = put {
+                result = Err(io::Error::other(e.to_string()));
+            }
+        });
+        result
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn decoder() -> &'static PayloadDecoder<'static> {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../definitions/mavlink/minimal.xml");
+        let ir = ferrolink_codegen::load(&[path]).expect("minimal.xml").ir;
+        Box::leak(Box::new(PayloadDecoder::new(Box::leak(Box::new(ir)))))
+    }
+
+    #[test]
+    fn json_and_frames_both_ways() {
+        let d = decoder();
+        let json =
+            br#"{"sender":3,"receiver":4,"counter":9,"msg":{"mavpackettype":"PING","seq":5}}"#;
+        let frame = frame_from_json(d, json).expect("a frame");
+        let mut parser = FrameParser::new([0; storage_len(ndlcom::MAX_PAYLOAD_LEN)]);
+        let mut seen = Vec::new();
+        parser.feed_all(&frame, |f| {
+            let h = f.header();
+            assert_eq!((h.sender, h.receiver, h.counter), (3, 4, 9));
+            assert_eq!(message_name(d, f.payload()), "PING");
+            let back: serde_json::Value =
+                serde_json::from_str(&frame_json(d, &h, f.payload())).expect("json");
+            assert_eq!(back["msg"]["seq"], 5);
+            assert_eq!(back["sender"], 3);
+            seen.push(());
+        });
+        assert_eq!(seen.len(), 1, "one frame with a good FCS");
+        assert_eq!(message_name(d, &[]), "EMPTY");
+        assert_eq!(message_name(d, &[250, 1]), "UNKNOWN_250");
+        let unknown = frame_json(d, &Header::default(), &[250, 1]);
+        assert!(
+            unknown.ends_with(r#""msg":null,"payload":"fa01"}"#),
+            "{unknown}"
+        );
+        for bad in [
+            &br#"{"receiver":4,"msg":{"mavpackettype":"PING"}}"#[..],
+            br#"{"sender":1,"receiver":4,"msg":null}"#,
+            br#"{"sender":1,"receiver":4}"#,
+            b"junk",
+        ] {
+            assert!(frame_from_json(d, bad).is_err());
+        }
+    }
+}
