@@ -5,9 +5,10 @@ use std::io::{self, BufRead, Write};
 use std::process::ExitCode;
 
 use clap::{Subcommand, ValueEnum};
+use ferrolink_io::modrob::json;
 use ferrolink_runtime::modrob::ethernet::{self, Packet, PacketBuilder};
-use ferrolink_runtime::modrob::{parser::Parser, uart, CommandKind, Message};
-use serde::{Deserialize, Serialize};
+use ferrolink_runtime::modrob::{parser::Parser, uart, Message};
+use serde::Serialize;
 
 use crate::ndlcom::HexReader;
 
@@ -70,202 +71,6 @@ fn parse_ulid(s: &str) -> Result<ulid::Ulid, String> {
     ulid::Ulid::from_string(s).map_err(|e| e.to_string())
 }
 
-/// A float32 in JSON: a number, or `"NaN"`, `"inf"`, `"-inf"`, which JSON numbers cannot be.
-#[derive(Serialize, Deserialize)]
-#[serde(untagged)]
-enum Value {
-    Number(f32),
-    Special(String),
-}
-
-impl Value {
-    fn from_f32(v: f32) -> Self {
-        if v.is_finite() {
-            Value::Number(v)
-        } else if v.is_nan() {
-            Value::Special("NaN".into())
-        } else if v > 0.0 {
-            Value::Special("inf".into())
-        } else {
-            Value::Special("-inf".into())
-        }
-    }
-
-    fn to_f32(&self) -> Result<f32, String> {
-        match self {
-            Value::Number(v) => Ok(*v),
-            Value::Special(s) => match s.as_str() {
-                "NaN" => Ok(f32::NAN),
-                "inf" => Ok(f32::INFINITY),
-                "-inf" => Ok(f32::NEG_INFINITY),
-                _ => Err(format!(
-                    "value `{s}` is neither a number nor NaN, inf or -inf"
-                )),
-            },
-        }
-    }
-}
-
-#[derive(Clone, Copy, Serialize, Deserialize)]
-enum CommandName {
-    #[serde(rename = "set_value")]
-    Value,
-    #[serde(rename = "set_frequency")]
-    Frequency,
-    #[serde(rename = "set_subscription")]
-    Subscription,
-}
-
-/// One message in the JSON form of `encode` and `decode`.
-#[derive(Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
-enum MessageJson {
-    Command {
-        command: CommandName,
-        module: u16,
-        variable: u8,
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        value: Option<Value>,
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        source_module: Option<u16>,
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        source_variable: Option<u8>,
-    },
-    Publication {
-        module: u16,
-        variable: u8,
-        value: Value,
-    },
-    Piecewise {
-        module: u16,
-        chunk: u8,
-        chunks: u8,
-        data: String,
-    },
-}
-
-impl MessageJson {
-    fn from_message(message: &Message) -> Self {
-        match *message {
-            Message::Command {
-                module,
-                variable,
-                command,
-            } => {
-                let (command, value, source) = match command {
-                    CommandKind::SetValue(v) => (CommandName::Value, Some(v), None),
-                    CommandKind::SetFrequency(v) => (CommandName::Frequency, Some(v), None),
-                    CommandKind::SetSubscription { module, variable } => {
-                        (CommandName::Subscription, None, Some((module, variable)))
-                    }
-                };
-                MessageJson::Command {
-                    command,
-                    module,
-                    variable,
-                    value: value.map(Value::from_f32),
-                    source_module: source.map(|s| s.0),
-                    source_variable: source.map(|s| s.1),
-                }
-            }
-            Message::Publication {
-                module,
-                variable,
-                value,
-            } => MessageJson::Publication {
-                module,
-                variable,
-                value: Value::from_f32(value),
-            },
-            Message::Piecewise {
-                module,
-                chunk,
-                chunks,
-                data,
-            } => MessageJson::Piecewise {
-                module,
-                chunk,
-                chunks,
-                data: hex::encode(data),
-            },
-        }
-    }
-
-    fn to_message(&self) -> Result<Message, String> {
-        Ok(match self {
-            MessageJson::Command {
-                command,
-                module,
-                variable,
-                value,
-                source_module,
-                source_variable,
-            } => {
-                let command = match (command, value, source_module, source_variable) {
-                    (CommandName::Value, Some(v), None, None) => {
-                        CommandKind::SetValue(v.to_f32()?)
-                    }
-                    (CommandName::Frequency, Some(v), None, None) => {
-                        CommandKind::SetFrequency(v.to_f32()?)
-                    }
-                    (CommandName::Value | CommandName::Frequency, ..) => {
-                        return Err(
-                            "set_value and set_frequency take `value` and no `source_module` or `source_variable`"
-                                .into(),
-                        )
-                    }
-                    (CommandName::Subscription, None, Some(m), Some(v)) => {
-                        CommandKind::SetSubscription {
-                            module: *m,
-                            variable: *v,
-                        }
-                    }
-                    (CommandName::Subscription, ..) => {
-                        return Err(
-                            "set_subscription takes `source_module` and `source_variable` and no `value`"
-                                .into(),
-                        )
-                    }
-                };
-                Message::Command {
-                    module: *module,
-                    variable: *variable,
-                    command,
-                }
-            }
-            MessageJson::Publication {
-                module,
-                variable,
-                value,
-            } => Message::Publication {
-                module: *module,
-                variable: *variable,
-                value: value.to_f32()?,
-            },
-            MessageJson::Piecewise {
-                module,
-                chunk,
-                chunks,
-                data,
-            } => {
-                let bytes =
-                    hex::decode(data.trim()).map_err(|e| format!("data is not hex: {e}"))?;
-                let mut chunk_data = [0u8; 7];
-                chunk_data
-                    .get_mut(..bytes.len())
-                    .ok_or_else(|| format!("data of {} bytes exceeds a chunk's 7", bytes.len()))?
-                    .copy_from_slice(&bytes);
-                Message::Piecewise {
-                    module: *module,
-                    chunk: *chunk,
-                    chunks: *chunks,
-                    data: chunk_data,
-                }
-            }
-        })
-    }
-}
-
 /// The summary line of a UART/SPI decode, in this order.
 #[derive(Serialize)]
 struct StatsJson {
@@ -301,11 +106,7 @@ fn exit_code(failed: bool) -> ExitCode {
 }
 
 fn print_message(out: &mut impl Write, message: &Message) -> io::Result<()> {
-    writeln!(
-        out,
-        "{}",
-        serde_json::to_string(&MessageJson::from_message(message))?
-    )
+    writeln!(out, "{}", json::to_string(message))
 }
 
 fn encode(
@@ -323,9 +124,7 @@ fn encode(
         if line.trim().is_empty() {
             continue;
         }
-        let message = serde_json::from_str::<MessageJson>(&line)
-            .map_err(|e| e.to_string())
-            .and_then(|m| m.to_message());
+        let message = json::from_str(&line);
         let message = match message {
             Ok(message) => message,
             Err(e) => {

@@ -2,7 +2,8 @@
 //!
 //! A crate of its own, so that nothing else compiles Zenoh. It gives the MAVLink router daemon
 //! of `ferrolink-io` a `zenoh://` endpoint ([`mavlink`]), the NDLCom bridge a `zenoh://`
-//! interface ([`ndlcom`]), and lists the routers on a network ([`fleet`]).
+//! interface ([`ndlcom`]), a ModRob-1 leader an upstream port ([`modrob`]), and lists the
+//! routers on a network ([`fleet`]).
 //!
 //! Key expressions, under a prefix (`ferrolink` by default):
 //!
@@ -13,6 +14,7 @@
 //! | `<prefix>/mavlink/<sysid>/<compid>/tx` | commands into the fleet, for system `<sysid>` |
 //! | `<prefix>/fleet/<zenoh id>` | each router's links and the systems behind them (a queryable) |
 //! | `<prefix>/ndlcom/<sender>/<receiver>/<MESSAGE_NAME>` | every frame an NDLCom bridge sends to Zenoh ([`ndlcom`]) |
+//! | `<prefix>/modrob/<robot>/<instance>/<variable>` | what a ModRob-1 leader sends up ([`modrob`]); `.../set` takes values down |
 //!
 //! So `ferrolink/mavlink/3/**` is one vehicle, and `ferrolink/*/*/*/HEARTBEAT` every heartbeat.
 
@@ -20,6 +22,7 @@
 
 pub mod fleet;
 pub mod mavlink;
+pub mod modrob;
 pub mod ndlcom;
 pub mod uri;
 

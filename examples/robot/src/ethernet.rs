@@ -5,6 +5,11 @@
 //!
 //! Ports: module `i` at `base + i`, the leader's upstream socket at `base + n`, the host at
 //! `base + n + 1` (n modules).
+//!
+//! With the `zenoh` feature, the leader's upstream port can be a Zenoh network instead
+//! (`ferrolink_zenoh::modrob`): what goes up is put on `<prefix>/modrob/robot/<instance>/
+//! <variable>`, and commands come down from whoever puts on `.../<variable>/set`; the host
+//! thread then only reports.
 
 use std::io;
 use std::net::{Ipv4Addr, SocketAddr};
@@ -50,11 +55,65 @@ fn kind(m: &Message) -> usize {
     }
 }
 
+/// Where the leader's upstream port goes.
+#[derive(Debug)]
+pub enum Upstream {
+    /// The host thread, over Ethernet-1 on UDP.
+    Host,
+    /// A Zenoh network, named by a `zenoh://` URI.
+    #[cfg(feature = "zenoh")]
+    Zenoh(ferrolink_zenoh::ZenohUri),
+}
+
+/// The leader's upstream port, open.
+enum UpPort {
+    Host(EthernetNode),
+    #[cfg(feature = "zenoh")]
+    Zenoh(Box<ferrolink_zenoh::modrob::Upstream>),
+}
+
+impl UpPort {
+    /// Takes what came down.
+    fn receive(&mut self, on_message: impl FnMut(Message)) -> io::Result<()> {
+        let mut on_message = on_message;
+        match self {
+            UpPort::Host(node) => node.receive(|_, m| on_message(m)).map(|_| ()),
+            #[cfg(feature = "zenoh")]
+            UpPort::Zenoh(up) => {
+                up.receive(on_message);
+                Ok(())
+            }
+        }
+    }
+
+    /// Sends what goes up; returns how many messages.
+    fn send(&mut self, messages: Vec<Message>) -> io::Result<u64> {
+        let n = messages.len() as u64;
+        match self {
+            UpPort::Host(node) => {
+                for m in messages {
+                    node.queue(m);
+                }
+                node.flush()?;
+            }
+            #[cfg(feature = "zenoh")]
+            UpPort::Zenoh(up) => {
+                for m in &messages {
+                    up.publish(m)?;
+                }
+            }
+        }
+        Ok(n)
+    }
+}
+
 /// Runs the robot for `duration` from ports `base..`; `report` is called with the counters
-/// about once a second from the caller's thread, which is also the host.
+/// about once a second from the caller's thread, which is also the host (when the leader's
+/// upstream goes there).
 pub fn run(
     base: u16,
     duration: Duration,
+    upstream: Upstream,
     mut report: impl FnMut(Duration, &Shared),
 ) -> io::Result<Arc<Shared>> {
     let r = &robot::ROBOT;
@@ -78,14 +137,21 @@ pub fn run(
             .map(|j| port(j).map(addr))
             .collect::<io::Result<Vec<_>>>()?;
         let node = EthernetNode::bind(addr(port(i)?), inst.uuid.unwrap_or_default(), peers)?;
-        let upstream = if i == r.leader {
-            Some(EthernetNode::bind(
+        let upstream = match (i == r.leader, &upstream) {
+            (false, _) => None,
+            (true, Upstream::Host) => Some(UpPort::Host(EthernetNode::bind(
                 addr(port(n)?),
                 inst.uuid.unwrap_or_default(),
                 vec![addr(port(n + 1)?)],
-            )?)
-        } else {
-            None
+            )?)),
+            #[cfg(feature = "zenoh")]
+            (true, Upstream::Zenoh(uri)) => Some(UpPort::Zenoh(Box::new(
+                ferrolink_zenoh::modrob::Upstream::open(
+                    uri,
+                    &robot::ROBOT,
+                    crate::modules::variable_name,
+                )?,
+            ))),
         };
         let module = build(inst, i);
         let (shared, stop) = (shared.clone(), stop.clone());
@@ -97,7 +163,7 @@ pub fn run(
     let mut next_command = Duration::ZERO;
     while start.elapsed() < duration {
         let now = start.elapsed();
-        if now >= next_command {
+        if now >= next_command && matches!(upstream, Upstream::Host) {
             let (linear, angular) = command_at(now.as_secs_f32());
             for (var, value) in [
                 (motion_control::Var::LinearVelocity, linear),
@@ -132,7 +198,7 @@ fn run_module(
     i: usize,
     mut module: Box<dyn Module>,
     mut node: EthernetNode,
-    mut upstream: Option<EthernetNode>,
+    mut upstream: Option<UpPort>,
     start: Instant,
     shared: &Shared,
     stop: &AtomicBool,
@@ -156,7 +222,7 @@ fn run_module(
         }
         if let (Some(up), Some(leader)) = (upstream.as_mut(), leader.as_mut()) {
             let mut commands = Vec::new();
-            up.receive(|_, m| commands.push(m))?;
+            up.receive(|m| commands.push(m))?;
             for m in commands {
                 let forward = leader.receive(Port::Upstream, &m);
                 if forward.local {
@@ -192,10 +258,11 @@ fn run_module(
             .bytes
             .fetch_add(node.stats().bytes_sent - before, Ordering::Relaxed);
         if let Some(up) = upstream.as_mut() {
-            for m in to_parent {
-                up.queue(m);
+            let sent = up.send(to_parent)?;
+            // The host counts what it receives; what goes up to Zenoh is counted here.
+            if !matches!(up, UpPort::Host(_)) {
+                shared.upstream.fetch_add(sent, Ordering::Relaxed);
             }
-            up.flush()?;
         }
         shared.subscription_updates[i].store(
             module.counters().subscription_updates.into(),

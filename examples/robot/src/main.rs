@@ -3,6 +3,7 @@
 //! ```text
 //! robot [--seconds S] [--fast]                  simulated CAN bus (1 Mbit/s), paced to the wall clock
 //! robot --transport ethernet [--base-port P]    Ethernet-1 over UDP loopback, one thread per module
+//!       [--upstream zenoh://...]                the leader's upstream port on Zenoh (feature zenoh)
 //! ```
 
 use std::process::ExitCode;
@@ -38,6 +39,10 @@ struct Args {
     /// the host).
     #[arg(long, default_value_t = 47000)]
     base_port: u16,
+    /// Ethernet: the leader's upstream port on Zenoh instead of the host thread
+    /// (`zenoh://?mode=peer&listen=tcp/HOST:PORT...`; needs the `zenoh` feature).
+    #[arg(long, value_name = "URI")]
+    upstream: Option<String>,
 }
 
 fn main() -> ExitCode {
@@ -109,10 +114,22 @@ fn run_ethernet(args: &Args) -> std::io::Result<()> {
         args.base_port,
         args.seconds
     );
+    let upstream = match &args.upstream {
+        None => ethernet::Upstream::Host,
+        #[cfg(feature = "zenoh")]
+        Some(uri) => ethernet::Upstream::Zenoh(uri.parse().map_err(std::io::Error::other)?),
+        #[cfg(not(feature = "zenoh"))]
+        Some(uri) => {
+            return Err(std::io::Error::other(format!(
+                "{uri}: built without the zenoh feature (cargo run -p ferrolink-example-robot --features zenoh)"
+            )))
+        }
+    };
     let mut last = [0u64; 5];
     ethernet::run(
         args.base_port,
         Duration::from_secs(args.seconds),
+        upstream,
         |at, shared| {
             let now = [
                 shared.sent[0].load(Ordering::Relaxed),

@@ -253,6 +253,27 @@ impl Behaviour<{ sensor_processing::VARIABLES }> for Processing {
 }
 
 /// The module of `instance`, by its dictionary.
+/// The name of variable `vi` in dictionary `dictionary`, from the generated tables.
+pub fn variable_name(dictionary: &str, vi: u8) -> Option<&'static str> {
+    macro_rules! find {
+        ($($dict:ident),*) => {
+            match dictionary {
+                $(stringify!($dict) => $dict::DICTIONARY.variables.iter().find(|v| v.vi == vi).map(|v| v.name),)*
+                _ => None,
+            }
+        };
+    }
+    find!(
+        drive,
+        distance_sensor,
+        bumper,
+        motion_control,
+        planar_obstacle_search,
+        spatial_obstacle_search,
+        sensor_processing
+    )
+}
+
 pub fn build(instance: &'static Instance, index: usize) -> Box<dyn Module> {
     let phase = index as f32;
     match instance.dictionary {

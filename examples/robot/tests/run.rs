@@ -109,9 +109,13 @@ fn ten_seconds_on_the_can_bus() {
 fn three_seconds_over_ethernet() {
     use std::sync::atomic::Ordering;
     let base = 20_000 + (std::process::id() % 20_000) as u16;
-    let shared =
-        ferrolink_example_robot::ethernet::run(base, std::time::Duration::from_secs(3), |_, _| {})
-            .expect("runs");
+    let shared = ferrolink_example_robot::ethernet::run(
+        base,
+        std::time::Duration::from_secs(3),
+        ferrolink_example_robot::ethernet::Upstream::Host,
+        |_, _| {},
+    )
+    .expect("runs");
     for (i, inst) in robot::INSTANCES.iter().enumerate() {
         if i != robot::ROBOT.leader {
             assert!(
@@ -131,4 +135,68 @@ fn three_seconds_over_ethernet() {
     }
     assert!(shared.packets.load(Ordering::Relaxed) > 0);
     assert!(shared.upstream.load(Ordering::Relaxed) > 1_000);
+}
+
+/// The leader's upstream port on Zenoh: a Zenoh session of the test's own sees the motion
+/// controller's publications under `<prefix>/modrob/<robot>/motion/...` as JSON, and a value put
+/// on `.../linear_velocity/set` reaches the module, which then publishes it.
+#[cfg(feature = "zenoh")]
+#[test]
+fn the_leaders_upstream_on_zenoh() {
+    use std::time::{Duration, Instant};
+    use zenoh::Wait;
+    let zport = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port");
+    let base = 40_000 + (std::process::id() % 10_000) as u16;
+    let prefix = format!("robot{zport}");
+    let uri =
+        format!("zenoh://?mode=peer&listen=tcp/127.0.0.1:{zport}&encoding=json&prefix={prefix}");
+    let upstream =
+        ferrolink_example_robot::ethernet::Upstream::Zenoh(uri.parse().expect("a zenoh URI"));
+    let robot_thread = std::thread::spawn(move || {
+        ferrolink_example_robot::ethernet::run(base, Duration::from_secs(6), upstream, |_, _| {})
+    });
+    std::thread::sleep(Duration::from_millis(500));
+    let mut config = zenoh::Config::default();
+    config
+        .insert_json5("connect/endpoints", &format!("[\"tcp/127.0.0.1:{zport}\"]"))
+        .expect("config");
+    let session = zenoh::open(config).wait().expect("a session");
+    let root = format!("{prefix}/modrob/{}/motion", robot::ROBOT.name);
+    let sub = session
+        .declare_subscriber(format!("{root}/linear_velocity"))
+        .wait()
+        .expect("subscribed");
+    let deadline = Instant::now() + Duration::from_secs(4);
+    let mut last_put = Instant::now() - Duration::from_secs(1);
+    let mut seen = None;
+    while Instant::now() < deadline {
+        if last_put.elapsed() >= Duration::from_millis(300) {
+            session
+                .put(format!("{root}/linear_velocity/set"), "0.75")
+                .wait()
+                .expect("put");
+            last_put = Instant::now();
+        }
+        let Ok(Some(sample)) = sub.recv_timeout(Duration::from_millis(50)) else {
+            continue;
+        };
+        let text = String::from_utf8(sample.payload().to_bytes().to_vec()).expect("utf-8");
+        let value: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+        assert_eq!(value["type"], "publication", "{text}");
+        if value["value"] == 0.75 {
+            seen = Some(text);
+            break;
+        }
+    }
+    drop(sub);
+    let _ = session.close().wait();
+    let shared = robot_thread.join().expect("no panic").expect("runs");
+    assert!(seen.is_some(), "the set value was never published back");
+    assert!(
+        shared.upstream.load(std::sync::atomic::Ordering::Relaxed) > 100,
+        "little went up"
+    );
 }
