@@ -17,7 +17,8 @@ the last line is `N passed, M failed`; the status is 0 only if nothing failed):
                   gets HEARTBEAT samples of both vehicles on
                   <prefix>/mavlink/<sysid>/1/HEARTBEAT and the ground station's on
                   <prefix>/mavlink/255/190/HEARTBEAT; every sample is one frame pymavlink
-                  parses (CRC checked), on the key its source and type name.
+                  parses (CRC checked), on the key its source and type name; a frame of
+                  an id no dialect has arrives byte for byte on .../UNKNOWN_60000.
   tx_put          A put of a COMMAND_LONG as JSON on <prefix>/mavlink/2/1/tx (the message
                   alone, target from the key) and one as a raw frame reach vehicle 2 exactly
                   once each; its two ACKs appear on <prefix>/mavlink/2/1/COMMAND_ACK.
@@ -217,9 +218,9 @@ def zenoh_session(fleet):
     return zenoh.open(conf)
 
 
-def subscribe(fleet, session, seconds, gcs=None):
+def subscribe(fleet, session, seconds, gcs=None, extra=None):
     """(key, payload bytes) of every sample under <prefix>/mavlink/** for `seconds`, while
-    `gcs` (if any) sends a heartbeat every 0.5 s."""
+    `gcs` (if any) sends a heartbeat, and the bytes `extra`, every 0.5 s."""
     samples = []
     lock = threading.Lock()
 
@@ -233,6 +234,8 @@ def subscribe(fleet, session, seconds, gcs=None):
         if gcs is not None:
             gcs.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS,
                                    mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+            if extra is not None:
+                gcs.write(extra)
         time.sleep(0.5)
     sub.undeclare()
     with lock:
@@ -260,8 +263,15 @@ def check_subscriber_raw(args):
     try:
         m = fleet.gcs()
         fleet.wait_for_system(m, 2)
+        # A frame of an id no dialect has: forwarded as a broadcast, put on UNKNOWN_<id>.
+        unknown = bytes([0xFD, 3, 0, 0, 7, 255, 190, 0x60, 0xEA, 0x00, 1, 2, 3, 0x12, 0x34])
         with zenoh_session(fleet) as session:
-            samples = subscribe(fleet, session, 3.0, m)
+            samples = subscribe(fleet, session, 3.0, m, extra=unknown)
+        unknown_key = "%s/mavlink/255/190/UNKNOWN_60000" % fleet.prefix
+        got = [p for k, p in samples if k == unknown_key]
+        samples = [(k, p) for k, p in samples if k != unknown_key]
+        if got[:1] != [unknown]:
+            raise CheckFailed("the unknown id's frame on %s: %r" % (unknown_key, got[:1]))
         mav = mavutil.mavlink.MAVLink(None)
         seen = {}
         for key, payload in samples:
