@@ -31,13 +31,14 @@ if .venv/bin/python -c 'import pymavlink' 2>/dev/null; then
   if .venv/bin/python -c 'import mavsdk, MAVProxy' 2>/dev/null; then
     export FERROLINK_REQUIRE_GCS=1
   fi
-  # A Zenoh client we did not write, for the fleet test.
-  if ! .venv/bin/python -c 'import zenoh' 2>/dev/null; then
+  # A Zenoh client we did not write, for the fleet test. (-I: the crate folder zenoh/ in this
+  # directory must not pass for the package.)
+  if ! .venv/bin/python -I -c 'import zenoh; zenoh.Config' 2>/dev/null; then
     echo "== installing eclipse-zenoh 1.10.2 into .venv"
     .venv/bin/pip install --quiet --disable-pip-version-check eclipse-zenoh==1.10.2 ||
       echo "warning: eclipse-zenoh could not be installed; the fleet test's subscriber checks will be skipped"
   fi
-  if .venv/bin/python -c 'import zenoh' 2>/dev/null; then
+  if .venv/bin/python -I -c 'import zenoh; zenoh.Config' 2>/dev/null; then
     export FERROLINK_REQUIRE_ZENOH=1
   fi
 fi

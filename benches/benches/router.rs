@@ -349,6 +349,11 @@ struct Row {
 
 fn measure(router: &Router, ports: &[u16]) -> Row {
     let pid = router.child.id();
+    measure_with(router.name, ports, || cpu_time(pid).unwrap_or_default())
+}
+
+/// The measurements of one router on `ports` (A, B, C), whose CPU time `cpu` reads.
+fn measure_with(name: &'static str, ports: &[u16], cpu: impl Fn() -> Duration) -> Row {
     let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
     source.connect(("127.0.0.1", ports[0])).expect("connect");
     let _ = source.send(&heartbeat(1));
@@ -358,25 +363,24 @@ fn measure(router: &Router, ports: &[u16]) -> Row {
 
     // Idle, with every peer known.
     let idle = Duration::from_secs(5);
-    let before = cpu_time(pid).unwrap_or_default();
+    let before = cpu();
     thread::sleep(idle);
-    let idle_pct =
-        100.0 * (cpu_time(pid).unwrap_or_default() - before).as_secs_f64() / idle.as_secs_f64();
+    let idle_pct = 100.0 * cpu().saturating_sub(before).as_secs_f64() / idle.as_secs_f64();
 
     // 10,000 msg/s.
-    let before = cpu_time(pid).unwrap_or_default();
+    let before = cpu();
     let sent = send(&source, 1, 10_000, Duration::from_secs(5));
     thread::sleep(Duration::from_millis(500));
-    let cpu = cpu_time(pid).unwrap_or_default().saturating_sub(before);
+    let used = cpu().saturating_sub(before);
     let (mut lb, lc) = (b.take(), c.take());
     lb.sort_unstable();
     let delivered = (lb.len() + lc.len()) as f64 / (2 * sent) as f64;
     let forwarded = (lb.len() + lc.len()).max(1) as f64;
     let row = Row {
-        name: router.name,
+        name,
         six_peers: None,
         delivered,
-        cpu_per_10k_ms: cpu.as_secs_f64() * 1e3 * 10_000.0 / forwarded,
+        cpu_per_10k_ms: used.as_secs_f64() * 1e3 * 10_000.0 / forwarded,
         p50: percentile(&lb, 0.5),
         p99: percentile(&lb, 0.99),
         max_rate: 0.0,
@@ -675,40 +679,10 @@ fn forwarder_cpu() -> Duration {
 fn measure_model(model: Model, ports: [u16; 3]) -> Row {
     let stop = Arc::new(AtomicBool::new(false));
     let runner = forward(model, ports, stop.clone());
-    let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
-    source.connect(("127.0.0.1", ports[0])).expect("connect");
-    let _ = source.send(&heartbeat(1));
-    let (b, c) = (Sink::new(ports[1], 201), Sink::new(ports[2], 202));
-    thread::sleep(Duration::from_millis(500));
-    let _ = (b.take(), c.take());
-    let idle = Duration::from_secs(5);
-    let before = forwarder_cpu();
-    thread::sleep(idle);
-    let idle_pct = 100.0 * (forwarder_cpu() - before).as_secs_f64() / idle.as_secs_f64();
-    let before = forwarder_cpu();
-    let sent = send(&source, 1, 10_000, Duration::from_secs(5));
-    thread::sleep(Duration::from_millis(500));
-    let cpu = forwarder_cpu().saturating_sub(before);
-    let (mut lb, lc) = (b.take(), c.take());
-    lb.sort_unstable();
-    let forwarded = (lb.len() + lc.len()).max(1) as f64;
-    let row = Row {
-        name: model.name(),
-        six_peers: None,
-        delivered: (lb.len() + lc.len()) as f64 / (2 * sent) as f64,
-        cpu_per_10k_ms: cpu.as_secs_f64() * 1e3 * 10_000.0 / forwarded,
-        p50: percentile(&lb, 0.5),
-        p99: percentile(&lb, 0.99),
-        max_rate: 0.0,
-        idle_pct,
-    };
-    let window = Duration::from_secs(3);
-    send(&source, 1, 100_000, window);
-    thread::sleep(Duration::from_millis(500));
-    let max_rate = b.take().len() as f64 / window.as_secs_f64();
+    let row = measure_with(model.name(), &ports, forwarder_cpu);
     stop.store(true, Ordering::Relaxed);
     let _ = runner.join();
-    Row { max_rate, ..row }
+    row
 }
 
 fn machine() -> String {

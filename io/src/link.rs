@@ -461,6 +461,20 @@ pub fn open(
     Ok(Handle { stop, local, udp })
 }
 
+/// A UDP endpoint bound to `local` whose datagrams (from any sender) arrive on a channel, for
+/// protocols that poll on a thread of their own (TosNet's UDP nodes, ModRob's Ethernet-1).
+/// Send with [`Handle::sender_to`].
+pub fn datagrams(local: SocketAddr) -> io::Result<(Handle, std::sync::mpsc::Receiver<Vec<u8>>)> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let sink: Sink = Arc::new(move |event| match event {
+        Event::Rx { bytes, .. } => tx.send(bytes.to_vec()).is_ok(),
+        Event::Up { .. } | Event::Down { .. } => true,
+    });
+    let endpoint = Endpoint::UdpIn(local.ip().to_string(), local.port());
+    let handle = open(0, &endpoint, Options::default(), sink)?;
+    Ok((handle, rx))
+}
+
 fn spawn(name: &str, f: impl FnOnce() + Send + 'static) -> io::Result<()> {
     thread::Builder::new()
         .name(name.chars().take(15).collect())

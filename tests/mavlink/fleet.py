@@ -252,8 +252,9 @@ def check_command_raw(args):
 
 def need_zenoh():
     try:
-        import zenoh  # noqa: F401
-    except ImportError:
+        import zenoh
+        zenoh.Config  # a folder named zenoh on the path is not the package
+    except (ImportError, AttributeError):
         raise CheckSkipped("the eclipse-zenoh package is missing")
 
 
@@ -333,6 +334,7 @@ def check_fleet(args):
     try:
         m = fleet.gcs()
         fleet.wait_for_system(m, 2)
+        fleet.wait_for_system(m, 1)
         uri = "zenoh://?mode=peer&connect=tcp/%s:%d&prefix=%s" % (HOST, fleet.zport, fleet.prefix)
         out = subprocess.run([args.router, "mavlink", "fleet", "--json", "--timeout", "2", uri],
                              capture_output=True, text=True, timeout=30)

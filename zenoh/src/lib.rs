@@ -24,6 +24,9 @@ pub mod fleet;
 pub mod mavlink;
 pub mod modrob;
 pub mod ndlcom;
+mod session;
 pub mod uri;
+
+pub use session::Running;
 
 pub use uri::{Encoding, Mode, UriError, ZenohUri};

@@ -25,10 +25,8 @@
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::io;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
-use std::thread;
-use std::time::{Duration, Instant};
+use std::sync::{Mutex, PoisonError};
+use std::time::Instant;
 
 use ferrolink_codegen::traffic::{FrameDefaults, PayloadDecoder};
 use ferrolink_io::link::Status;
@@ -36,13 +34,11 @@ use ferrolink_io::link::{self, Event, Sender};
 use ferrolink_io::mavlink::router::Attached;
 use ferrolink_runtime::mavlink::router::LinkConfig;
 use ferrolink_runtime::mavlink::{find_meta, AnyFrame, MessageMeta};
-use zenoh::sample::Locality;
 use zenoh::Wait;
 
+use crate::session::{Rejections, Running, POLL};
 use crate::uri::{Encoding, ZenohUri};
 
-/// How often the endpoint's threads look up to notice a shutdown.
-const POLL: Duration = Duration::from_millis(200);
 /// The sender of a JSON command that names none (a ground station's ids).
 pub const DEFAULT_SYSID: u8 = 255;
 /// See [`DEFAULT_SYSID`].
@@ -69,24 +65,6 @@ pub fn attached(uri: ZenohUri, dictionaries: Dictionaries) -> Attached {
     }
 }
 
-/// A running endpoint; dropping it stops its threads and closes the session.
-#[derive(Debug)]
-pub struct Running {
-    session: zenoh::Session,
-    stop: Arc<AtomicBool>,
-    threads: Vec<thread::JoinHandle<()>>,
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        for t in self.threads.drain(..) {
-            let _ = t.join();
-        }
-        let _ = self.session.close().wait();
-    }
-}
-
 /// The key a frame from `sysid`/`compid` with message `name` is put on.
 pub fn key(root: &str, sysid: u8, compid: u8, name: &str) -> String {
     format!("{root}/{sysid}/{compid}/{name}")
@@ -101,82 +79,53 @@ pub fn open(
     sink: link::Sink,
     status: Status,
 ) -> io::Result<Running> {
+    let mut running = Running::open(uri)?;
     let name = uri.to_string();
-    let fail = |e: &dyn std::fmt::Display| io::Error::other(format!("{name}: {e}"));
-    let config = uri.config().map_err(|e| fail(&e))?;
-    let session = zenoh::open(config).wait().map_err(|e| fail(&e))?;
     let root = uri.mavlink_root();
-    let subscriber = session
-        .declare_subscriber(format!("{root}/**"))
-        .allowed_origin(Locality::Remote)
-        .wait()
-        .map_err(|e| fail(&e))?;
-    let fleet_key = format!("{}/{}", uri.fleet_root(), session.zid());
-    let queryable = session
+    let subscriber = running.subscribe_remote(format!("{root}/**"))?;
+    let zid = running.session().zid().to_string();
+    let fleet_key = format!("{}/{zid}", uri.fleet_root());
+    let queryable = running
+        .session()
         .declare_queryable(&fleet_key)
         .wait()
-        .map_err(|e| fail(&e))?;
+        .map_err(|e| running.error(e))?;
 
     let peer = link::next_peer();
-    let sender = publisher(&session, &root, uri.encoding, dictionaries);
     let up = Event::Up {
         endpoint: index,
         peer,
         name: name.clone(),
-        sender,
+        sender: publisher(running.session(), &root, uri.encoding, dictionaries),
     };
     if !sink(up) {
-        return Err(fail(&"nobody listens for events"));
+        return Err(running.error("nobody listens for events"));
     }
-    let stop = Arc::new(AtomicBool::new(false));
-    let receiving = {
-        let stop = stop.clone();
-        thread::Builder::new()
-            .name("zenoh-rx".into())
-            .spawn(move || {
-                let mut frames = FrameMaker::new(dictionaries);
-                while !stop.load(Ordering::Relaxed) {
-                    let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {
-                        continue;
-                    };
-                    let key = sample.key_expr().as_str().to_owned();
-                    let bytes = sample.payload().to_bytes();
-                    let Some(frame) = frames.frame(&root, &key, &bytes) else {
-                        continue;
-                    };
-                    let rx = Event::Rx {
-                        peer,
-                        bytes: &frame,
-                        at: Instant::now(),
-                    };
-                    if !sink(rx) {
-                        return;
-                    }
-                }
-            })?
-    };
-    let answering = {
-        let stop = stop.clone();
-        let zid = session.zid().to_string();
-        thread::Builder::new()
-            .name("zenoh-fleet".into())
-            .spawn(move || {
-                while !stop.load(Ordering::Relaxed) {
-                    let Ok(Some(query)) = queryable.recv_timeout(POLL) else {
-                        continue;
-                    };
-                    let mut answer = status();
-                    answer["router"] = zid.clone().into();
-                    answer["endpoint"] = name.clone().into();
-                    let _ = query.reply(&fleet_key, answer.to_string()).wait();
-                }
-            })?
-    };
-    Ok(Running {
-        session,
-        stop,
-        threads: vec![receiving, answering],
-    })
+    let mut frames = FrameMaker::new(dictionaries);
+    running.spawn("zenoh-rx", move || {
+        let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {
+            return true;
+        };
+        let key = sample.key_expr().as_str();
+        let Some(frame) = frames.frame(&root, key, &sample.payload().to_bytes()) else {
+            return true;
+        };
+        sink(Event::Rx {
+            peer,
+            bytes: &frame,
+            at: Instant::now(),
+        })
+    })?;
+    running.spawn("zenoh-fleet", move || {
+        if let Ok(Some(query)) = queryable.recv_timeout(POLL) {
+            let mut answer = status();
+            answer["router"] = zid.clone().into();
+            answer["endpoint"] = name.clone().into();
+            let _ = query.reply(&fleet_key, answer.to_string()).wait();
+        }
+        true
+    })?;
+    Ok(running)
 }
 
 /// The most keys the sender keeps a declared publisher for; past that, the table starts over.
@@ -237,8 +186,7 @@ struct FrameMaker {
     /// The sequence number of the next JSON command that names none.
     seq: u8,
     /// Samples that carried no frame.
-    rejected: u64,
-    last_report: Option<Instant>,
+    rejected: Rejections,
 }
 
 impl FrameMaker {
@@ -246,8 +194,7 @@ impl FrameMaker {
         Self {
             dictionaries,
             seq: 0,
-            rejected: 0,
-            last_report: None,
+            rejected: Rejections::default(),
         }
     }
 
@@ -260,16 +207,7 @@ impl FrameMaker {
         match self.json_frame(root, key, bytes) {
             Ok(frame) => Some(frame),
             Err(e) => {
-                self.rejected += 1;
-                let rejected = self.rejected;
-                let now = Instant::now();
-                if self
-                    .last_report
-                    .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
-                {
-                    self.last_report = Some(now);
-                    eprintln!("zenoh: sample on {key} rejected ({rejected} so far): {e}");
-                }
+                self.rejected.note(key, &e);
                 None
             }
         }
@@ -388,7 +326,7 @@ mod tests {
         for bytes in junk {
             assert!(maker.frame("p/mavlink", "p/mavlink/1/1/X", bytes).is_none());
         }
-        assert_eq!(maker.rejected, 4);
+        assert_eq!(maker.rejected.count(), 4);
     }
 
     #[test]

@@ -18,9 +18,10 @@ use ferrolink_runtime::modrob::dictionary::Robot;
 use ferrolink_runtime::modrob::{uart, CommandKind, Message};
 use zenoh::handlers::FifoChannelHandler;
 use zenoh::pubsub::Subscriber;
-use zenoh::sample::{Locality, Sample};
+use zenoh::sample::Sample;
 use zenoh::Wait;
 
+use crate::session::{Rejections, Running};
 use crate::uri::{Encoding, ZenohUri};
 
 /// Names a dictionary's variable: `(dictionary name, VI) -> variable name`.
@@ -40,12 +41,13 @@ pub struct Stats {
 /// The upstream port.
 #[derive(Debug)]
 pub struct Upstream {
-    session: zenoh::Session,
+    running: Running,
     root: String,
     encoding: Encoding,
     robot: &'static Robot,
     variable_name: VariableName,
     down: Subscriber<FifoChannelHandler<Sample>>,
+    rejected: Rejections,
     stats: Stats,
 }
 
@@ -56,23 +58,17 @@ impl Upstream {
         robot: &'static Robot,
         variable_name: VariableName,
     ) -> io::Result<Self> {
-        let fail = |e: &dyn std::fmt::Display| io::Error::other(format!("{uri}: {e}"));
-        let session = zenoh::open(uri.config().map_err(|e| fail(&e))?)
-            .wait()
-            .map_err(|e| fail(&e))?;
+        let running = Running::open(uri)?;
         let root = format!("{}/modrob/{}", uri.prefix, robot.name);
-        let down = session
-            .declare_subscriber(format!("{root}/**"))
-            .allowed_origin(Locality::Remote)
-            .wait()
-            .map_err(|e| fail(&e))?;
+        let down = running.subscribe_remote(format!("{root}/**"))?;
         Ok(Self {
-            session,
+            running,
             root,
             encoding: uri.encoding,
             robot,
             variable_name,
             down,
+            rejected: Rejections::default(),
             stats: Stats::default(),
         })
     }
@@ -128,9 +124,13 @@ impl Upstream {
                 let mut out = [0u8; 16];
                 let n = uart::encode(message, &mut out)
                     .map_err(|e| io::Error::other(format!("{e:?}")))?;
-                self.session.put(key, out[..n].to_vec()).wait()
+                self.running.session().put(key, out[..n].to_vec()).wait()
             }
-            Encoding::Json => self.session.put(key, json::to_string(message)).wait(),
+            Encoding::Json => self
+                .running
+                .session()
+                .put(key, json::to_string(message))
+                .wait(),
         };
         put.map_err(|e| io::Error::other(e.to_string()))?;
         self.stats.published += 1;
@@ -153,7 +153,7 @@ impl Upstream {
                 Ok(None) => {}
                 Err(e) => {
                     self.stats.rejected += 1;
-                    eprintln!("zenoh: sample on {key} rejected: {e}");
+                    self.rejected.note(&key, &e);
                 }
             }
         }

@@ -12,22 +12,17 @@
 //!   never come back, and the bridge never sends a frame back to the interface it came from.
 
 use std::io;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex, PoisonError};
-use std::thread;
-use std::time::{Duration, Instant};
+use std::sync::{Mutex, PoisonError};
+use std::time::Instant;
 
 use ferrolink_codegen::traffic::PayloadDecoder;
 use ferrolink_io::bridge::Attached;
 use ferrolink_io::link::{self, Event, Sender};
 use ferrolink_runtime::ndlcom::{self, parser::Parser, storage_len, Header, FLAG};
-use zenoh::sample::Locality;
 use zenoh::Wait;
 
+use crate::session::{Rejections, Running, POLL};
 use crate::uri::{Encoding, ZenohUri};
-
-/// How often the interface's threads look up to notice a shutdown.
-const POLL: Duration = Duration::from_millis(200);
 
 type FrameParser = Parser<[u8; storage_len(ndlcom::MAX_PAYLOAD_LEN)]>;
 
@@ -40,24 +35,6 @@ pub fn attached(uri: ZenohUri, decoder: &'static PayloadDecoder<'static>) -> Att
             let running = open(index, &uri, decoder, sink)?;
             Ok(Box::new(running) as Box<dyn Send>)
         }),
-    }
-}
-
-/// A running interface; dropping it stops its thread and closes the session.
-#[derive(Debug)]
-pub struct Running {
-    session: zenoh::Session,
-    stop: Arc<AtomicBool>,
-    thread: Option<thread::JoinHandle<()>>,
-}
-
-impl Drop for Running {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-        let _ = self.session.close().wait();
     }
 }
 
@@ -128,76 +105,43 @@ pub fn open(
     decoder: &'static PayloadDecoder<'static>,
     sink: link::Sink,
 ) -> io::Result<Running> {
-    let name = uri.to_string();
-    let fail = |e: &dyn std::fmt::Display| io::Error::other(format!("{name}: {e}"));
-    let config = uri.config().map_err(|e| fail(&e))?;
-    let session = zenoh::open(config).wait().map_err(|e| fail(&e))?;
+    let mut running = Running::open(uri)?;
     let root = format!("{}/ndlcom", uri.prefix);
-    let subscriber = session
-        .declare_subscriber(format!("{root}/**"))
-        .allowed_origin(Locality::Remote)
-        .wait()
-        .map_err(|e| fail(&e))?;
+    let subscriber = running.subscribe_remote(format!("{root}/**"))?;
     let peer = link::next_peer();
     let up = Event::Up {
         endpoint: index,
         peer,
-        name: name.clone(),
-        sender: publisher(&session, &root, uri.encoding, decoder),
+        name: uri.to_string(),
+        sender: publisher(running.session(), &root, uri.encoding, decoder),
     };
     if !sink(up) {
-        return Err(fail(&"nobody listens for events"));
+        return Err(running.error("nobody listens for events"));
     }
-    let stop = Arc::new(AtomicBool::new(false));
-    let thread = {
-        let stop = stop.clone();
-        thread::Builder::new()
-            .name("zenoh-ndlcom".into())
-            .spawn(move || {
-                let (mut rejected, mut last_report) = (0u64, None::<Instant>);
-                while !stop.load(Ordering::Relaxed) {
-                    let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {
-                        continue;
-                    };
-                    let bytes = sample.payload().to_bytes();
-                    let frame = if bytes.first() == Some(&FLAG) {
-                        Ok(bytes.to_vec())
-                    } else {
-                        frame_from_json(decoder, &bytes)
-                    };
-                    let frame = match frame {
-                        Ok(frame) => frame,
-                        Err(e) => {
-                            rejected += 1;
-                            let now = Instant::now();
-                            if last_report
-                                .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
-                            {
-                                last_report = Some(now);
-                                eprintln!(
-                                    "zenoh: sample on {} rejected ({rejected} so far): {e}",
-                                    sample.key_expr()
-                                );
-                            }
-                            continue;
-                        }
-                    };
-                    let rx = Event::Rx {
-                        peer,
-                        bytes: &frame,
-                        at: Instant::now(),
-                    };
-                    if !sink(rx) {
-                        return;
-                    }
-                }
-            })?
-    };
-    Ok(Running {
-        session,
-        stop,
-        thread: Some(thread),
-    })
+    let mut rejected = Rejections::default();
+    running.spawn("zenoh-ndlcom", move || {
+        let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {
+            return true;
+        };
+        let bytes = sample.payload().to_bytes();
+        let frame = if bytes.first() == Some(&FLAG) {
+            Ok(bytes.to_vec())
+        } else {
+            frame_from_json(decoder, &bytes)
+        };
+        match frame {
+            Ok(frame) => sink(Event::Rx {
+                peer,
+                bytes: &frame,
+                at: Instant::now(),
+            }),
+            Err(e) => {
+                rejected.note(sample.key_expr().as_str(), &e);
+                true
+            }
+        }
+    })?;
+    Ok(running)
 }
 
 /// The interface's sender: the bridge hands it encoded bytes (one or more frames); each frame is

@@ -9,12 +9,12 @@
 
 use std::io;
 use std::net::SocketAddr;
-use std::sync::{mpsc, Arc};
+use std::sync::mpsc;
 
 use ferrolink_runtime::modrob::ethernet::{Packet, PacketBuilder, MAX_DATAGRAM_LEN};
 use ferrolink_runtime::modrob::Message;
 
-use crate::link::{self, Endpoint, Event, Handle, Sender};
+use crate::link::{self, Handle, Sender};
 
 /// Traffic counters of one node.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -61,13 +61,7 @@ impl std::fmt::Debug for EthernetNode {
 impl EthernetNode {
     /// Binds `local` for the module with UUID `uuid`, sending to `peers`.
     pub fn bind(local: SocketAddr, uuid: [u8; 16], peers: Vec<SocketAddr>) -> io::Result<Self> {
-        let (datagrams_tx, datagrams) = mpsc::channel();
-        let sink: link::Sink = Arc::new(move |event| match event {
-            Event::Rx { bytes, .. } => datagrams_tx.send(bytes.to_vec()).is_ok(),
-            Event::Up { .. } | Event::Down { .. } => true,
-        });
-        let endpoint = Endpoint::UdpIn(local.ip().to_string(), local.port());
-        let handle = link::open(0, &endpoint, link::Options::default(), sink)?;
+        let (handle, datagrams) = link::datagrams(local)?;
         let mut node = Self {
             handle,
             datagrams,

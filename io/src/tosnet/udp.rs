@@ -3,13 +3,13 @@
 
 use std::io;
 use std::net::SocketAddr;
-use std::sync::{mpsc, Arc};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use ferrolink_runtime::tosnet::frame::MAX_FRAME_LEN;
 use ferrolink_runtime::tosnet::Node;
 
-use crate::link::{self, Endpoint, Event, Handle, Sender};
+use crate::link::{self, Handle, Sender};
 
 /// The longest a [`UdpNode::step`] waits for a frame.
 const MAX_WAIT: Duration = Duration::from_millis(5);
@@ -30,13 +30,7 @@ pub struct UdpNode {
 impl UdpNode {
     /// Binds `listen` and sends to `next`.
     pub fn bind(node: Node, listen: SocketAddr, next: SocketAddr) -> io::Result<Self> {
-        let (frames_tx, frames) = mpsc::channel();
-        let sink: link::Sink = Arc::new(move |event| match event {
-            Event::Rx { bytes, .. } => frames_tx.send(bytes.to_vec()).is_ok(),
-            Event::Up { .. } | Event::Down { .. } => true,
-        });
-        let endpoint = Endpoint::UdpIn(listen.ip().to_string(), listen.port());
-        let handle = link::open(0, &endpoint, link::Options::default(), sink)?;
+        let (handle, frames) = link::datagrams(listen)?;
         let next = handle
             .sender_to(next)
             .ok_or_else(|| io::Error::other("a UDP endpoint sends anywhere"))?;
