@@ -219,16 +219,12 @@ class MavNode(Node):
             pass
 
 
-class RawUdpNode(Node):
-    """A plain UDP socket talking to a udpin endpoint: what it receives is
-    kept byte for byte; frames it sends are encoded with pymavlink."""
+class RawNode(Node):
+    """A node that moves bytes itself (`write`): frames it sends are encoded with pymavlink,
+    what it receives is split into frames byte for byte, and bytes between frames are counted."""
 
-    def __init__(self, name, port, sysid, compid, mav_type):
+    def __init__(self, name, sysid, compid, mav_type):
         Node.__init__(self, name, sysid, compid, mav_type)
-        self.dest = (HOST, port)
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind((HOST, 0))
-        self.sock.setblocking(False)
         self.encoder = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
         self.decoder = mavlink.MAVLink(None)
         self.skipped = 0
@@ -239,10 +235,27 @@ class RawUdpNode(Node):
         return self.send_raw(raw)
 
     def send_raw(self, data, frame=True):
-        self.sock.sendto(data, self.dest)
+        self.write(data)
         if frame:
             self.sent.append(bytes(data))
         return data
+
+    def junk(self):
+        return self.skipped
+
+
+class RawUdpNode(RawNode):
+    """A plain UDP socket talking to a udpin endpoint."""
+
+    def __init__(self, name, port, sysid, compid, mav_type):
+        RawNode.__init__(self, name, sysid, compid, mav_type)
+        self.dest = (HOST, port)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind((HOST, 0))
+        self.sock.setblocking(False)
+
+    def write(self, data):
+        self.sock.sendto(data, self.dest)
 
     def poll(self):
         while True:
@@ -254,39 +267,25 @@ class RawUdpNode(Node):
             self.skipped += skipped + len(tail)
             self.inbox.extend(rx_from_frame(self.decoder, f) for f in frames)
 
-    def junk(self):
-        return self.skipped
-
     def close(self):
         self.sock.close()
 
 
-class PtyNode(Node):
+class PtyNode(RawNode):
     """A device on a serial line: the master side of a pseudo-terminal whose slave the router
     opens as `serial://`."""
 
     def __init__(self, name, sysid, compid, mav_type):
-        Node.__init__(self, name, sysid, compid, mav_type)
+        RawNode.__init__(self, name, sysid, compid, mav_type)
         self.master, self.slave = pty.openpty()
         tty.setraw(self.master)
         tty.setraw(self.slave)
         os.set_blocking(self.master, False)
         self.path = os.ttyname(self.slave)
-        self.encoder = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
-        self.decoder = mavlink.MAVLink(None)
         self.buf = b""
-        self.skipped = 0
 
-    def send(self, msg):
-        raw = bytes(msg.pack(self.encoder))
-        self.encoder.seq = (self.encoder.seq + 1) % 256
-        return self.send_raw(raw)
-
-    def send_raw(self, data, frame=True):
+    def write(self, data):
         os.write(self.master, data)
-        if frame:
-            self.sent.append(bytes(data))
-        return data
 
     def poll(self):
         while True:
@@ -301,9 +300,6 @@ class PtyNode(Node):
         frames, skipped, self.buf = split_frames(self.buf)
         self.skipped += skipped
         self.inbox.extend(rx_from_frame(self.decoder, f) for f in frames)
-
-    def junk(self):
-        return self.skipped
 
     def close(self):
         for fd in (self.master, self.slave):

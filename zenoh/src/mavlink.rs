@@ -91,16 +91,8 @@ pub fn open(
         .wait()
         .map_err(|e| running.error(e))?;
 
-    let peer = link::next_peer();
-    let up = Event::Up {
-        endpoint: index,
-        peer,
-        name: name.clone(),
-        sender: publisher(running.session(), &root, uri.encoding, dictionaries),
-    };
-    if !sink(up) {
-        return Err(running.error("nobody listens for events"));
-    }
+    let sender = publisher(running.session(), &root, uri.encoding, dictionaries);
+    let peer = running.report_up(index, sender, &sink)?;
     let mut frames = FrameMaker::new(dictionaries);
     running.spawn("zenoh-rx", move || {
         let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {

@@ -108,16 +108,8 @@ pub fn open(
     let mut running = Running::open(uri)?;
     let root = format!("{}/ndlcom", uri.prefix);
     let subscriber = running.subscribe_remote(format!("{root}/**"))?;
-    let peer = link::next_peer();
-    let up = Event::Up {
-        endpoint: index,
-        peer,
-        name: uri.to_string(),
-        sender: publisher(running.session(), &root, uri.encoding, decoder),
-    };
-    if !sink(up) {
-        return Err(running.error("nobody listens for events"));
-    }
+    let sender = publisher(running.session(), &root, uri.encoding, decoder);
+    let peer = running.report_up(index, sender, &sink)?;
     let mut rejected = Rejections::default();
     running.spawn("zenoh-ndlcom", move || {
         let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, Instant};
 
+use ferrolink_io::link::{self, Event, PeerId, Sender};
 use zenoh::handlers::FifoChannelHandler;
 use zenoh::pubsub::Subscriber;
 use zenoh::sample::{Locality, Sample};
@@ -52,6 +53,28 @@ impl Running {
     /// An error that names the endpoint.
     pub(crate) fn error(&self, e: impl std::fmt::Display) -> io::Error {
         io::Error::other(format!("{}: {e}", self.name))
+    }
+
+    /// Reports the endpoint's one peer up to `sink`, as endpoint `index` named by its URI,
+    /// written to through `sender`; returns the peer.
+    pub(crate) fn report_up(
+        &self,
+        index: usize,
+        sender: Sender,
+        sink: &link::Sink,
+    ) -> io::Result<PeerId> {
+        let peer = link::next_peer();
+        let up = Event::Up {
+            endpoint: index,
+            peer,
+            name: self.name.clone(),
+            sender,
+        };
+        if sink(up) {
+            Ok(peer)
+        } else {
+            Err(self.error("nobody listens for events"))
+        }
     }
 
     /// A subscriber to `key` that takes only what other sessions put.
