@@ -17,7 +17,7 @@
 //! | `tcpin://HOST:PORT` | each client | any number of clients |
 //! | `tcpout://HOST:PORT` | the server | reconnects with a backoff from 50 ms doubling to 1 s |
 //! | `serial://PATH[:BAUD]` | the device | reopened every second after it fails or is unplugged |
-//! | `pty://NAME` | the program attached to the pseudo-terminal linked at `NAME` | created at open, removed when the endpoint is dropped |
+//! | `pty://NAME` | the program attached to the pseudo-terminal linked at `NAME` | created at open, removed once the endpoint and its senders are dropped |
 //!
 //! The spellings of pymavlink and rust-mavlink are accepted as well, so a user can paste what
 //! they know: `udpin:0.0.0.0:14550`, `udpout:HOST:PORT`, `udp:HOST:PORT` (= udpin),
@@ -26,7 +26,8 @@
 //!
 //! A UDP endpoint also sends to any address from its bound socket ([`Handle::sender_to`]), for
 //! protocols that fan out to a list of addresses on a shared medium (ModRob's Ethernet-1) or
-//! pass frames around a ring (TosNet).
+//! pass frames around a ring (TosNet); [`datagrams`] hands such an endpoint's datagrams to a
+//! channel, for nodes that poll on a thread of their own.
 //!
 //! Threads, not an async runtime (measured against tokio in `cargo bench -p ferrolink-bench --bench
 //! router`): one blocking reader per socket or client, parked in the kernel
