@@ -2,6 +2,7 @@
 //! dictionaries, dump the IR, and work with NDLCom traffic and ModRob-1 messages.
 
 mod dialect;
+mod diff;
 mod mavlink;
 mod mavlink_stats;
 mod modrob;
@@ -68,6 +69,28 @@ enum Command {
     /// TosNet: the cycle-rate model against a simulated ring.
     #[command(subcommand)]
     Tosnet(tosnet::Command),
+    /// Write a static documentation site for the dictionaries: DIR/index.html, a page per file,
+    /// an offline search and DIR/dictionary.json.
+    Docs {
+        /// Dictionary files.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// Output directory (created if needed).
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+    },
+    /// Write Wireshark dissectors in Lua for the dictionaries' protocols.
+    Wireshark {
+        /// Dictionary files.
+        #[arg(required = true)]
+        inputs: Vec<PathBuf>,
+        /// The Lua file to write.
+        #[arg(long, value_name = "FILE.lua")]
+        out: PathBuf,
+    },
+    /// Compare two versions of dictionaries: what breaks on the wire, in meaning, or in the
+    /// generated Rust (exit 1 with findings at or above --fail-on, 2 on invalid input).
+    Diff(diff::DiffArgs),
     /// Print the lowered IR as JSON.
     Ir {
         /// Dictionary files.
@@ -182,6 +205,30 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Ndlcom(command) => ndlcom::run(command),
         Command::Modrob(command) => modrob::run(command),
         Command::Tosnet(command) => tosnet::run(command),
+        Command::Docs { inputs, out } => {
+            let checked = ferrolink_codegen::load(&inputs)?;
+            print_warnings(&checked.warnings);
+            let files = ferrolink_codegen::backend::docs::generate(&checked.ir)?;
+            std::fs::create_dir_all(&out)?;
+            let written = ferrolink_codegen::write::write_all(&out, &files)?;
+            eprintln!(
+                "{} file(s) in {}, {} changed; open {}",
+                files.len(),
+                out.display(),
+                written.len(),
+                out.join("index.html").display()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Wireshark { inputs, out } => {
+            let checked = ferrolink_codegen::load(&inputs)?;
+            print_warnings(&checked.warnings);
+            let lua = ferrolink_codegen::backend::wireshark::generate(&checked.ir)?;
+            ferrolink_codegen::write::write_if_changed(&out, &lua)?;
+            eprintln!("wrote {}", out.display());
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Diff(args) => diff::run(args),
         Command::Ir { inputs } => {
             let checked = ferrolink_codegen::load(&inputs)?;
             print_warnings(&checked.warnings);

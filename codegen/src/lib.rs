@@ -25,6 +25,8 @@ pub mod backend;
 pub mod check;
 mod config;
 pub mod diag;
+#[cfg(feature = "tools")]
+pub mod diff;
 pub mod format;
 pub mod frontend;
 pub mod ident;

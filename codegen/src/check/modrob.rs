@@ -329,10 +329,21 @@ fn check_robot(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostics)
     check_traffic(robot, modules, diags);
 }
 
-/// Every variable's effective rate (stored rate, else its default) against its network, and each
-/// network's total: its own modules' publications plus those the leader forwards onto it for
-/// subscribers.
-fn check_traffic(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostics) {
+/// Each network's load in messages/s: its own modules' publications at their effective rates
+/// (the robot's stored rate, else the dictionary's), plus those the leader forwards onto it for
+/// subscribers on other networks. Stored rates that are not valid rates are left out.
+pub fn network_loads(robot: &Robot, modules: &[ModrobModule]) -> Vec<f64> {
+    let rates = effective_rates(robot, modules, |s, _| s.value.is_finite() && s.value >= 0.0);
+    loads(robot, &rates)
+}
+
+/// Every variable's effective rate and the stored rate's span, if one was stored and `valid`
+/// accepts it (it gets the variable's name).
+fn effective_rates<'r>(
+    robot: &'r Robot,
+    modules: &[ModrobModule],
+    mut valid: impl FnMut(&'r crate::ir::Setting, &str) -> bool,
+) -> HashMap<VarRef, (f64, Option<Span>)> {
     let mut rates: HashMap<VarRef, (f64, Option<Span>)> = HashMap::new();
     for (i, inst) in robot.instances.iter().enumerate() {
         for v in &modules[inst.dictionary].variables {
@@ -343,21 +354,44 @@ fn check_traffic(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostic
         }
     }
     for s in &robot.rates {
-        let (Some((_, name)), Some(span)) = (variable(robot, modules, s.target), s.span.clone())
-        else {
+        let Some((_, name)) = variable(robot, modules, s.target) else {
             continue;
         };
-        if check_rate(s.value, span.clone(), &name, diags) {
-            rates.insert(s.target, (s.value, Some(span)));
+        if valid(s, &name) {
+            rates.insert(s.target, (s.value, s.span.clone()));
         }
     }
+    rates
+}
+
+fn loads(robot: &Robot, rates: &HashMap<VarRef, (f64, Option<Span>)>) -> Vec<f64> {
     let mut load = vec![0.0f64; robot.networks.len()];
     let mut sorted: Vec<_> = rates.iter().collect();
     sorted.sort_by_key(|(r, _)| (r.instance, r.vi));
+    for (r, (rate, _)) in sorted {
+        load[robot.instances[r.instance].network] += rate;
+    }
+    for sub in &robot.subscriptions {
+        let from = robot.instances[sub.source.instance].network;
+        let to = robot.instances[sub.target.instance].network;
+        if from != to {
+            load[to] += rates.get(&sub.source).map_or(0.0, |r| r.0);
+        }
+    }
+    load
+}
+
+/// Every variable's effective rate (stored rate, else its default) against its network, and each
+/// network's total against what it carries.
+fn check_traffic(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostics) {
+    let rates = effective_rates(robot, modules, |s, name| match s.span.clone() {
+        Some(span) => check_rate(s.value, span, name, diags),
+        None => false,
+    });
+    let mut sorted: Vec<_> = rates.iter().collect();
+    sorted.sort_by_key(|(r, _)| (r.instance, r.vi));
     for (r, (rate, span)) in sorted {
-        let network = robot.instances[r.instance].network;
-        load[network] += rate;
-        let net = &robot.networks[network];
+        let net = &robot.networks[robot.instances[r.instance].network];
         let cap = capacity(net);
         if *rate > cap {
             let inst_span = robot.instances[r.instance].span.clone();
@@ -377,13 +411,7 @@ fn check_traffic(robot: &Robot, modules: &[ModrobModule], diags: &mut Diagnostic
             }
         }
     }
-    for sub in &robot.subscriptions {
-        let from = robot.instances[sub.source.instance].network;
-        let to = robot.instances[sub.target.instance].network;
-        if from != to {
-            load[to] += rates.get(&sub.source).map_or(0.0, |r| r.0);
-        }
-    }
+    let load = loads(robot, &rates);
     for (net, total) in robot.networks.iter().zip(load) {
         let cap = capacity(net);
         if total > cap {

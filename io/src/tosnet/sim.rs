@@ -42,8 +42,8 @@ impl Default for LinkModel {
     /// The paper's figures: 10 Mbit/s, 5.46 µs per node, cut-through.
     fn default() -> Self {
         Self {
-            bitrate: 10e6,
-            node_delay_ns: 5460,
+            bitrate: ferrolink_runtime::tosnet::PAPER_BITRATE,
+            node_delay_ns: ferrolink_runtime::tosnet::PAPER_NODE_DELAY_NS as u64,
             forwarding: Forwarding::CutThrough,
         }
     }
@@ -56,11 +56,7 @@ impl LinkModel {
     }
 }
 
-/// The model's cycle rate: `1 / ((32 + 256 r) / B + i d)`, in Hz.
-pub fn model_rate(nodes: usize, registers: usize, bitrate: f64, node_delay_ns: f64) -> f64 {
-    let bits = 32.0 + 256.0 * registers as f64;
-    1.0 / (bits / bitrate + nodes as f64 * node_delay_ns * 1e-9)
-}
+pub use ferrolink_runtime::tosnet::model_rate;
 
 #[derive(Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum What {

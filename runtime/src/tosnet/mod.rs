@@ -23,6 +23,19 @@ pub use node::{Config, Counters, Node, Phase, Role, Status};
 
 use ::crc::{Algorithm, Crc, Table};
 
+/// The paper's bit rate: 10 Mbit/s.
+pub const PAPER_BITRATE: f64 = 10e6;
+
+/// The paper's delay through one node: 5.46 µs.
+pub const PAPER_NODE_DELAY_NS: f64 = 5460.0;
+
+/// The model's cycle rate, `1 / ((32 + 256 r) / B + i d)` in Hz, for `nodes` nodes (i), `registers`
+/// enabled registers in the whole ring (r), a bit rate B in bit/s and a delay d per node.
+pub fn model_rate(nodes: usize, registers: usize, bitrate: f64, node_delay_ns: f64) -> f64 {
+    let bits = 32.0 + 256.0 * registers as f64;
+    1.0 / (bits / bitrate + nodes as f64 * node_delay_ns * 1e-9)
+}
+
 /// CRC-8 with polynomial 0x65 (x^8 + x^6 + x^5 + x^2 + 1), init 0, not reflected, no final xor.
 pub const CRC_8_TOSNET: Algorithm<u8> = Algorithm {
     width: 8,
