@@ -43,6 +43,29 @@ if .venv/bin/python -c 'import pymavlink' 2>/dev/null; then
   fi
 fi
 
+# Wireshark's tshark (with Lua 5.2), Lua 5.2 and 5.4 compilers, and Chromium, from Debian's
+# packages: for the generated dissectors' checks and the documentation site's browser check.
+# Without them (no root, no network) those checks are skipped and say so.
+missing=()
+command -v tshark >/dev/null 2>&1 || missing+=(tshark)
+command -v luac5.2 >/dev/null 2>&1 || missing+=(lua5.2)
+command -v luac5.4 >/dev/null 2>&1 || missing+=(lua5.4)
+command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "== installing ${missing[*]} from Debian's packages"
+  sudo=""
+  [ "$(id -u)" = 0 ] || sudo="sudo -n"
+  { $sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq \
+      --no-install-recommends "${missing[@]}" >/dev/null; } ||
+    echo "warning: ${missing[*]} could not be installed; their checks will be skipped"
+fi
+if command -v tshark >/dev/null 2>&1; then
+  export FERROLINK_REQUIRE_TSHARK=1
+fi
+if command -v chromium >/dev/null 2>&1; then
+  export FERROLINK_REQUIRE_CHROMIUM=1
+fi
+
 # CI never writes snapshots.
 export INSTA_UPDATE=no
 

@@ -51,13 +51,26 @@ pub fn run_router_checks(script: &str) -> Option<String> {
         skip("pymavlink is missing");
         return None;
     };
+    Some(run_checks(
+        &python,
+        &format!("mavlink/{script}"),
+        &[
+            "--router".as_ref(),
+            ferrolink().as_ref(),
+            "--dialect-dir".as_ref(),
+            dialects.as_os_str(),
+        ],
+    ))
+}
+
+/// Runs the checks script `tests/SCRIPT` with `python`, `args` and a fresh `--workdir`, and
+/// returns its output. Each check prints `ok`, `FAIL` or `skip` and the script ends with
+/// `N passed, M failed`; the test fails unless every check passed.
+pub fn run_checks(python: &Path, script: &str, args: &[&std::ffi::OsStr]) -> String {
     let workdir = tempfile::tempdir().expect("a scratch directory");
     let out = Command::new(python)
-        .arg(workspace().join("tests/mavlink").join(script))
-        .arg("--router")
-        .arg(ferrolink())
-        .arg("--dialect-dir")
-        .arg(&dialects)
+        .arg(workspace().join("tests").join(script))
+        .args(args)
         .arg("--workdir")
         .arg(workdir.path())
         .output()
@@ -66,5 +79,16 @@ pub fn run_router_checks(script: &str) -> Option<String> {
     eprintln!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
     assert!(out.status.success(), "some checks failed:\n{stdout}");
     assert!(stdout.contains(" 0 failed"), "{stdout}");
-    Some(stdout)
+    stdout
+}
+
+/// Fails when a check of `stdout` was skipped for want of `tool` while the full run, which
+/// installs it, sets `require` (e.g. `FERROLINK_REQUIRE_TSHARK`).
+pub fn require_no_skip(stdout: &str, require: &str, tool: &str) {
+    if std::env::var_os(require).is_some() {
+        assert!(
+            !stdout.lines().any(|l| l.starts_with("skip")),
+            "a check was skipped although {tool} is installed:\n{stdout}"
+        );
+    }
 }
