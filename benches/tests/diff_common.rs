@@ -15,8 +15,11 @@ use mavlink::Message as _;
 
 type Common = mavlink::dialects::common::MavMessage;
 
+/// Message name to id and CRC_EXTRA.
+type Crcs = BTreeMap<String, (u32, u8)>;
+
 /// pymavlink's common.xml and its CRC_EXTRA per message name, as pymavlink computes them.
-fn pymavlink() -> Option<(PathBuf, BTreeMap<String, (u32, u8)>)> {
+fn pymavlink() -> Option<(PathBuf, Crcs)> {
     let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let python = std::env::var_os("FERROLINK_PYTHON")
         .map(PathBuf::from)
@@ -31,7 +34,7 @@ fn pymavlink() -> Option<(PathBuf, BTreeMap<String, (u32, u8)>)> {
     }
     let text = String::from_utf8(out.stdout).ok()?;
     let (path, json) = text.split_once('\n')?;
-    let crcs: BTreeMap<String, (u32, u8)> = serde_json::from_str(json).ok()?;
+    let crcs: Crcs = serde_json::from_str(json).ok()?;
     Some((PathBuf::from(path), crcs))
 }
 
@@ -77,7 +80,7 @@ fn pymavlink_common_against_the_mavlink_crates_common() {
     let (old, new) = (load(&old_path), load(&new_path));
     let findings = diff::diff(&old, &new);
 
-    let messages = |ir: &ferrolink_codegen::ir::Ir| -> BTreeMap<String, (u32, u8)> {
+    let messages = |ir: &ferrolink_codegen::ir::Ir| -> Crcs {
         ir.modules
             .iter()
             .flat_map(|m| &m.messages)

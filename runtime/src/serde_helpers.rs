@@ -108,3 +108,111 @@ pub mod f32_array {
         Ok(wide.map(|v| v as f32))
     }
 }
+
+/// An enum or bitmask carried in a signed integer field, as pymavlink shows it: the field's
+/// signed value (`-19` for the byte 0xED in an `int8_t`). Deserializing takes the signed value,
+/// or the unsigned one of the same width, so JSON written either way reads back to the same
+/// bits; anything outside both ranges is an error.
+macro_rules! signed_enum {
+    ($(#[$doc:meta])* $module:ident, $bits:literal) => {
+        $(#[$doc])*
+        pub mod $module {
+            use serde::{Deserializer, Serializer};
+
+            use crate::wire::Enum;
+
+            /// Serializes the field's signed value.
+            pub fn serialize<S: Serializer, E: Enum>(v: &E, s: S) -> Result<S::Ok, S::Error> {
+                s.serialize_i64(super::signed_value(v.bits(), $bits))
+            }
+
+            /// Deserializes a signed (or same-width unsigned) integer into the enum's bits.
+            pub fn deserialize<'de, D: Deserializer<'de>, E: Enum>(d: D) -> Result<E, D::Error> {
+                super::signed_enum_bits(d, $bits).map(E::from_bits)
+            }
+        }
+    };
+}
+
+signed_enum!(
+    /// An enum on an `int8_t` field.
+    signed_enum_8,
+    8
+);
+signed_enum!(
+    /// An enum on an `int16_t` field.
+    signed_enum_16,
+    16
+);
+signed_enum!(
+    /// An enum on an `int32_t` field.
+    signed_enum_32,
+    32
+);
+signed_enum!(
+    /// An enum on an `int64_t` field.
+    signed_enum_64,
+    64
+);
+
+/// The low `width` bits of `bits` as a signed number.
+fn signed_value(bits: u64, width: u32) -> i64 {
+    let shift = 64 - width;
+    ((bits << shift) as i64) >> shift
+}
+
+/// Reads an integer that fits `width` bits signed or unsigned, as raw bits sign-extended the way
+/// the wire decoder hands them to enums.
+fn signed_enum_bits<'de, D: serde::Deserializer<'de>>(d: D, width: u32) -> Result<u64, D::Error> {
+    use core::fmt;
+    use serde::de::{Error, Unexpected, Visitor};
+
+    struct V(u32);
+    impl Visitor<'_> for V {
+        type Value = u64;
+        fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            write!(f, "an integer of {} bits, signed or unsigned", self.0)
+        }
+        fn visit_i64<E: Error>(self, v: i64) -> Result<u64, E> {
+            let min = i64::MIN >> (64 - self.0);
+            if v < min {
+                return Err(E::invalid_value(Unexpected::Signed(v), &self));
+            }
+            if v < 0 {
+                return Ok(v as u64);
+            }
+            self.visit_u64(v as u64)
+        }
+        fn visit_u64<E: Error>(self, v: u64) -> Result<u64, E> {
+            let max = u64::MAX >> (64 - self.0);
+            if v > max {
+                return Err(E::invalid_value(Unexpected::Unsigned(v), &self));
+            }
+            Ok(signed_value(v, self.0) as u64)
+        }
+    }
+    d.deserialize_i64(V(width))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{signed_enum_bits, signed_value};
+    use serde::de::value::{Error, I64Deserializer, U64Deserializer};
+
+    #[test]
+    fn signed_values_and_bits_agree() {
+        assert_eq!(signed_value(0xED, 8), -19);
+        assert_eq!(signed_value(0x7F, 8), 127);
+        assert_eq!(signed_value(0xFFFF_FFFF_FFFF_FFED, 8), -19);
+        assert_eq!(signed_value(u64::MAX, 64), -1);
+        let bits = |v: i64, w| signed_enum_bits(I64Deserializer::<Error>::new(v), w);
+        assert_eq!(bits(-19, 8).unwrap(), (-19i64) as u64);
+        assert_eq!(bits(-128, 8).unwrap(), (-128i64) as u64);
+        assert!(bits(-129, 8).is_err());
+        assert_eq!(bits(5, 8).unwrap(), 5);
+        let ubits = |v: u64, w| signed_enum_bits(U64Deserializer::<Error>::new(v), w);
+        assert_eq!(ubits(0xED, 8).unwrap(), (-19i64) as u64);
+        assert!(ubits(256, 8).is_err());
+        assert_eq!(ubits(u64::MAX, 64).unwrap(), u64::MAX);
+    }
+}

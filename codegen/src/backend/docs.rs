@@ -127,7 +127,7 @@ pub fn generate(ir: &Ir) -> Result<Vec<GeneratedFile>, minijinja::Error> {
             }
         }).collect::<Vec<_>>(),
     };
-    let ir_value = Value::from_serialize(ir);
+    let ir_value = super::jinja::ir_value(ir);
     let version = env!("CARGO_PKG_VERSION");
     let mut files = Vec::new();
     for page in &pages {

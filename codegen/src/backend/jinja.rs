@@ -2,7 +2,7 @@
 //! dissectors): minijinja with strict undefined behaviour, the templates of
 //! `codegen/templates/` compiled in, and the filters they share.
 
-use minijinja::{Environment, UndefinedBehavior};
+use minijinja::{Environment, UndefinedBehavior, Value};
 
 /// Every template, by the name templates include it by.
 const TEMPLATES: &[(&str, &str)] = &[
@@ -38,6 +38,12 @@ pub(crate) fn environment() -> Environment<'static> {
     }
     env.add_filter("lua_str", lua_str);
     env
+}
+
+/// The IR as templates see it: its JSON form, exactly what `ferrolink ir` prints and the docs
+/// site exports (so an unbounded ModRob-1 limit is `none`, as JSON has no infinity).
+pub(crate) fn ir_value(ir: &crate::ir::Ir) -> Value {
+    Value::from_serialize(serde_json::to_value(ir).expect("the IR serialises to JSON"))
 }
 
 /// A Lua string literal for any text: `\` and `"` escaped, every byte outside printable ASCII

@@ -263,7 +263,15 @@ fn serde_derive(ctx: &Ctx<'_>) -> TokenStream {
 /// The field's Rust type and the `serde(with)` adapter it needs, if any.
 fn field_type(ctx: &Ctx<'_>, f: &Field) -> (TokenStream, Option<&'static str>) {
     if let Some(e) = ctx.enum_of(f) {
-        return (ctx.item_path(e.module, &e.name.rust), None);
+        // On a signed field the JSON form shows the signed value, as pymavlink does.
+        let with = match f.ty.primitive {
+            Primitive::I8 => Some("::ferrolink_runtime::serde_helpers::signed_enum_8"),
+            Primitive::I16 => Some("::ferrolink_runtime::serde_helpers::signed_enum_16"),
+            Primitive::I32 => Some("::ferrolink_runtime::serde_helpers::signed_enum_32"),
+            Primitive::I64 => Some("::ferrolink_runtime::serde_helpers::signed_enum_64"),
+            _ => None,
+        };
+        return (ctx.item_path(e.module, &e.name.rust), with);
     }
     let p = f.ty.primitive;
     match (p, f.ty.array) {

@@ -2,7 +2,7 @@
 //! XML files), ModRob-1 (from module dictionaries and robots) and TosNet (from register maps),
 //! rendered from `codegen/templates/wireshark/`.
 
-use minijinja::{context, Value};
+use minijinja::context;
 
 use crate::ir::Ir;
 
@@ -11,5 +11,5 @@ pub fn generate(ir: &Ir) -> Result<String, minijinja::Error> {
     let env = super::jinja::environment();
     let template = env.get_template("wireshark/dissectors.lua.j2")?;
     template
-        .render(context! { ir => Value::from_serialize(ir), version => env!("CARGO_PKG_VERSION") })
+        .render(context! { ir => super::jinja::ir_value(ir), version => env!("CARGO_PKG_VERSION") })
 }

@@ -384,6 +384,11 @@ class ValueGenerator(object):
         rng = self.rng
         named = self._named_values(field)
         r = rng.random()
+        lo, hi = INT_RANGES[field.ctype]
+        if lo < 0 and r >= 0.85:
+            # An enum on a signed field: pymavlink shows negative values as they are, and
+            # they are outside every enum.
+            return rng.choice((lo, -1, rng.randint(lo, -1)))
         if named and r < 0.5:
             if mode == MODE_EXTREME:
                 return rng.choice((named[0], named[-1]))

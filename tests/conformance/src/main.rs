@@ -6,8 +6,10 @@
 //! ```
 //!
 //! For every vector, in both directions and byte-exact:
+//! - `fields` (pymavlink's `to_dict()`) deserializes to a message that serializes back to exactly
+//!   `fields`;
 //! - the `v2` (and `v1`) frame decodes, through the frame view and through the stream parser, to
-//!   the message that `fields` deserializes to;
+//!   that message;
 //! - that message encodes, with the vector's seq/sysid/compid, to exactly `v2` (and `v1`).
 //!
 //! Prints `N passed, M failed` and exits non-zero on any failure.
@@ -92,6 +94,15 @@ fn check_vector(line: &str) -> Result<(), Error> {
     }
     let expected: Message = serde_json::from_value(v.fields.clone())
         .map_err(|e| format!("{}: fields do not deserialize: {e}", v.name))?;
+    // And back: the message serializes to exactly pymavlink's `to_dict()`.
+    let shown = serde_json::to_value(&expected)?;
+    if shown != v.fields {
+        return Err(format!(
+            "{}: serializes differently:\n  ours     {shown}\n  expected {}",
+            v.name, v.fields
+        )
+        .into());
+    }
     let header = Header::new(v.seq, v.sysid, v.compid);
 
     // Decode v2: frame view, then stream parser.
