@@ -542,12 +542,15 @@ def check_lua_versions(env):
     ]
     frames[1][-1] ^= 0xFF
     frames = [bytes(f) for f in frames]
-    # The MAVLink block alone: the other protocols of the file are not this mock's business.
+    # The part every dissector shares and the MAVLink block: the other protocols of the file
+    # are not this mock's business.
     text = open(env.lua, encoding="latin-1").read()
+    shared = text.find("-- Shared by every dissector")
     start, end = text.find("-- MAVLink (protocol `mavlink`)"), text.find("\nend -- MAVLink\n")
-    expect(0 <= start < end, "no MAVLink block in the file")
+    expect(0 <= shared < start < end, "no shared part or MAVLink block in the file")
     only = os.path.join(env.work, "mavlink-only.lua")
     with open(only, "w", encoding="latin-1") as f:
+        f.write(text[shared:start])
         f.write(text[start:end + len("\nend -- MAVLink\n")])
     script = os.path.join(env.work, "mock.lua")
     with open(script, "w") as f:

@@ -1432,15 +1432,20 @@ os.exit(errors == 0 and 0 or 1)
 
 def own_blocks(path, out):
     """The NDLCom, ModRob-1 and TosNet parts of a generated file: each is a `do ... end` block at
-    the left margin under its banner comment."""
+    the left margin under its banner comment, after the part every dissector shares (from its
+    banner to the first block's)."""
     lines = open(path).read().splitlines()
-    kept, inside = [], False
+    kept, inside, shared = [], False, False
     for line in lines:
+        if line.startswith("-- Shared by every dissector"):
+            shared = True
+        if line.startswith("-----") or line.startswith("-- MAVLink"):
+            shared = False
         if any(line.startswith(f"-- {name} ---") for name in ("NDLCom", "ModRob-1", "TosNet")):
-            inside = True
-        if inside:
+            shared, inside = False, True
+        if inside or shared:
             kept.append(line)
-            if line == "end":
+            if inside and line == "end":
                 inside = False
     require(sum(1 for l in kept if l == "do") == 3, "the three protocol blocks are not all in the file")
     with open(out, "w") as f:

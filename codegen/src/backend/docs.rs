@@ -17,47 +17,8 @@ use crate::check::modrob::{capacity, network_loads};
 use crate::ir::Ir;
 use crate::write::GeneratedFile;
 
-/// The site's templates, by name.
-pub(super) const TEMPLATES: &[(&str, &str)] = &[
-    (
-        "docs/base.html.j2",
-        include_str!("../../templates/docs/base.html.j2"),
-    ),
-    (
-        "docs/macros.html.j2",
-        include_str!("../../templates/docs/macros.html.j2"),
-    ),
-    (
-        "docs/index.html.j2",
-        include_str!("../../templates/docs/index.html.j2"),
-    ),
-    (
-        "docs/mavlink.html.j2",
-        include_str!("../../templates/docs/mavlink.html.j2"),
-    ),
-    (
-        "docs/modrob.html.j2",
-        include_str!("../../templates/docs/modrob.html.j2"),
-    ),
-    (
-        "docs/robot.html.j2",
-        include_str!("../../templates/docs/robot.html.j2"),
-    ),
-    (
-        "docs/tosnet.html.j2",
-        include_str!("../../templates/docs/tosnet.html.j2"),
-    ),
-    (
-        "docs/search-index.js.j2",
-        include_str!("../../templates/docs/search-index.js.j2"),
-    ),
-];
-
-/// Files copied as they are.
-const STATIC: &[(&str, &str)] = &[
-    ("style.css", include_str!("../../templates/docs/style.css")),
-    ("search.js", include_str!("../../templates/docs/search.js")),
-];
+/// Files of the site that are not templates, copied as they are.
+const STATIC: &[(&str, &str)] = super::jinja::compiled_in!["docs/style.css", "docs/search.js"];
 
 #[derive(Debug, Clone, Serialize)]
 struct Page {
@@ -146,9 +107,10 @@ pub fn generate(ir: &Ir) -> Result<Vec<GeneratedFile>, minijinja::Error> {
         name: "search-index.js".into(),
         content,
     });
-    for (name, content) in STATIC {
+    for (path, content) in STATIC {
+        let name = path.trim_start_matches("docs/");
         files.push(GeneratedFile {
-            name: (*name).into(),
+            name: name.into(),
             content: (*content).into(),
         });
     }

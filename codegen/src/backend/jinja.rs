@@ -4,35 +4,37 @@
 
 use minijinja::{Environment, UndefinedBehavior, Value};
 
+/// `(name, text)` pairs for files under `codegen/templates/`, compiled in.
+macro_rules! compiled_in {
+    ($($name:literal),* $(,)?) => {
+        &[$(($name, include_str!(concat!("../../templates/", $name)))),*]
+    };
+}
+pub(super) use compiled_in;
+
 /// Every template, by the name templates include it by.
-const TEMPLATES: &[(&str, &str)] = &[
-    (
-        "wireshark/dissectors.lua.j2",
-        include_str!("../../templates/wireshark/dissectors.lua.j2"),
-    ),
-    (
-        "wireshark/mavlink.lua.j2",
-        include_str!("../../templates/wireshark/mavlink.lua.j2"),
-    ),
-    (
-        "wireshark/ndlcom.lua.j2",
-        include_str!("../../templates/wireshark/ndlcom.lua.j2"),
-    ),
-    (
-        "wireshark/modrob.lua.j2",
-        include_str!("../../templates/wireshark/modrob.lua.j2"),
-    ),
-    (
-        "wireshark/tosnet.lua.j2",
-        include_str!("../../templates/wireshark/tosnet.lua.j2"),
-    ),
+const TEMPLATES: &[(&str, &str)] = compiled_in![
+    "wireshark/dissectors.lua.j2",
+    "wireshark/common.lua.j2",
+    "wireshark/mavlink.lua.j2",
+    "wireshark/ndlcom.lua.j2",
+    "wireshark/modrob.lua.j2",
+    "wireshark/tosnet.lua.j2",
+    "docs/base.html.j2",
+    "docs/macros.html.j2",
+    "docs/index.html.j2",
+    "docs/mavlink.html.j2",
+    "docs/modrob.html.j2",
+    "docs/robot.html.j2",
+    "docs/tosnet.html.j2",
+    "docs/search-index.js.j2",
 ];
 
 /// An environment holding every template, with strict undefined behaviour and `lua_str`.
 pub(crate) fn environment() -> Environment<'static> {
     let mut env = Environment::new();
     env.set_undefined_behavior(UndefinedBehavior::Strict);
-    for (name, source) in TEMPLATES.iter().chain(super::docs::TEMPLATES) {
+    for (name, source) in TEMPLATES {
         env.add_template(name, source)
             .unwrap_or_else(|e| panic!("template {name} does not parse: {e:#}"));
     }

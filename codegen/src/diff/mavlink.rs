@@ -2,7 +2,7 @@
 
 use std::collections::{BTreeMap, HashSet};
 
-use super::{type_name, Category, Findings, Kind, Subject};
+use super::{pair, type_name, Category, Findings, Kind, Pair, Subject};
 use crate::ir::{Enum, Field, Ir, Message};
 
 pub(super) fn diff(old: &Ir, new: &Ir, out: &mut Findings) {
@@ -312,10 +312,10 @@ fn field(m: &Message, of: &Field, nf: &Field, out: &mut Findings) {
 }
 
 fn enums(old: &Ir, new: &Ir, out: &mut Findings) {
-    for o in &old.enums {
-        match new.enums.iter().find(|e| e.name.wire == o.name.wire) {
-            Some(n) => enumeration(o, n, out),
-            None => {
+    for p in pair(&old.enums, &new.enums, |e| &e.name.wire) {
+        match p {
+            Pair::Both(o, n) => enumeration(o, n, out),
+            Pair::Gone(o) => {
                 let subject = Subject::new(Kind::Enum, &o.name.wire, o.span.as_ref(), None);
                 out.add(
                     &subject,
@@ -326,23 +326,18 @@ fn enums(old: &Ir, new: &Ir, out: &mut Findings) {
                     "enum removed: the generated type is gone",
                 );
             }
-        }
-    }
-    for n in &new.enums {
-        if !old.enums.iter().any(|e| e.name.wire == n.name.wire) {
-            let subject = Subject::new(Kind::Enum, &n.name.wire, None, n.span.as_ref());
-            out.add(
-                &subject,
-                Category::Safe,
-                "enum-added",
-                None::<usize>,
-                n.entries.len(),
-                format!(
-                    "new {} with {} entries",
-                    if n.bitmask { "bitmask" } else { "enum" },
-                    n.entries.len()
-                ),
-            );
+            Pair::Added(n) => {
+                let subject = Subject::new(Kind::Enum, &n.name.wire, None, n.span.as_ref());
+                let what = if n.bitmask { "bitmask" } else { "enum" };
+                out.add(
+                    &subject,
+                    Category::Safe,
+                    "enum-added",
+                    None::<usize>,
+                    n.entries.len(),
+                    format!("new {what} with {} entries", n.entries.len()),
+                );
+            }
         }
     }
 }

@@ -136,6 +136,34 @@ pub fn fails(findings: &[Finding], fail_on: Category) -> bool {
     findings.iter().any(|f| f.category <= fail_on)
 }
 
+/// An item of either version, paired with its namesake in the other.
+enum Pair<'a, T> {
+    /// On both sides: old, new.
+    Both(&'a T, &'a T),
+    /// Only in the old version.
+    Gone(&'a T),
+    /// Only in the new version.
+    Added(&'a T),
+}
+
+/// Pairs `old` and `new` by `name`: the old side's items in order, paired or gone, then the new
+/// side's items the old side lacks.
+fn pair<'a, T>(old: &'a [T], new: &'a [T], name: impl Fn(&T) -> &str) -> Vec<Pair<'a, T>> {
+    let mut pairs: Vec<Pair<'a, T>> = old
+        .iter()
+        .map(|o| match new.iter().find(|n| name(n) == name(o)) {
+            Some(n) => Pair::Both(o, n),
+            None => Pair::Gone(o),
+        })
+        .collect();
+    pairs.extend(
+        new.iter()
+            .filter(|n| !old.iter().any(|o| name(o) == name(n)))
+            .map(Pair::Added),
+    );
+    pairs
+}
+
 /// Collects findings; the protocol modules push through [`Findings::add`].
 #[derive(Default)]
 struct Findings(Vec<Finding>);
