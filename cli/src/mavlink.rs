@@ -78,6 +78,14 @@ pub enum Command {
         /// The log.
         file: PathBuf,
     },
+    /// Encode messages: reads JSON lines from stdin, each a message in pymavlink's `to_dict()`
+    /// form or the envelope `{"sysid":..,"compid":..,"seq":..,"msg":{..}}` that `dump` prints,
+    /// and prints each as an unsigned MAVLink 2 frame in hex.
+    Encode {
+        /// Dialect XML to encode with; repeatable. Without it, our own definitions.
+        #[arg(long, value_name = "FILE.xml")]
+        dialect: Vec<PathBuf>,
+    },
     /// Per source: message rates and sequence loss of a .tlog; optionally a plot of message
     /// rates over time.
     Stats {
@@ -243,6 +251,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             csv,
             file,
         } => dump(&dialect, raw, csv.as_deref(), &file),
+        Command::Encode { dialect } => encode(&dialect),
         Command::Stats {
             dialect,
             plot,
@@ -264,6 +273,46 @@ fn read_config(path: &Path) -> Result<FileConfig, String> {
         eprintln!("warning: {}: {w}", path.display());
     }
     Ok(file)
+}
+
+/// `ferrolink mavlink encode`: JSON lines in, frames in hex out; a line that does not encode is
+/// reported with its number and makes the exit status 1, the others are still encoded.
+fn encode(dialect: &[PathBuf]) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    use ferrolink_codegen::traffic::FrameDefaults;
+    let dialects = Dialects::load(dialect)?;
+    let decoder = dialects.decoder();
+    let stdout = io::stdout();
+    let mut out = BufWriter::new(stdout.lock());
+    let mut failed = false;
+    for (n, line) in io::stdin().lines().enumerate() {
+        let line = line?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let defaults = FrameDefaults {
+            sysid: 255,
+            compid: 190,
+            seq: n as u8,
+            target: None,
+        };
+        let frame = serde_json::from_str(&line)
+            .map_err(|e| e.to_string())
+            .and_then(|value| decoder.frame_from_json(&value, defaults));
+        match frame {
+            Ok(frame) => writeln!(out, "{}", hex::encode(frame))?,
+            Err(e) => {
+                out.flush()?;
+                eprintln!("line {}: {e}", n + 1);
+                failed = true;
+            }
+        }
+    }
+    out.flush()?;
+    Ok(if failed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
 fn dump(
