@@ -177,6 +177,7 @@ impl Runner {
 }
 
 fn main() {
+    println!("machine: {}", harness::machine());
     // `cargo bench` passes `--bench`; other arguments select cases by substring.
     let runner = Runner {
         filters: std::env::args()

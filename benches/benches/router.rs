@@ -29,6 +29,8 @@
 //! Peers that are not installed are skipped with a note: mavlink-routerd is taken from
 //! `MAVLINK_ROUTERD` or the `PATH`, MAVProxy from `.venv/bin/mavproxy.py` or the `PATH`.
 
+#[allow(dead_code)]
+mod harness;
 use std::io::{BufRead, BufReader};
 use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
@@ -685,23 +687,11 @@ fn measure_model(model: Model, ports: [u16; 3]) -> Row {
     row
 }
 
-fn machine() -> String {
-    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
-    let model = cpuinfo
-        .lines()
-        .find_map(|l| l.strip_prefix("model name"))
-        .and_then(|l| l.split_once(':'))
-        .map_or("unknown CPU", |(_, m)| m.trim())
-        .to_owned();
-    let cores = thread::available_parallelism().map_or(0, |n| n.get());
-    format!("{model}, {cores} cores")
-}
-
 fn main() {
     if std::env::args().any(|a| a == "--list") {
         return;
     }
-    println!("machine: {}", machine());
+    println!("machine: {}", harness::machine());
     // `cargo bench -p ferrolink-bench --bench router -- fleet`: the two-router section only.
     let only_fleet = std::env::args().any(|a| a == "fleet");
     println!("three UDP endpoints on loopback; PING broadcasts from A to B and C");

@@ -60,6 +60,7 @@ fn running_ring(nodes: u8, regs: u8) -> (Vec<Node>, Vec<Vec<u8>>) {
 }
 
 fn main() {
+    println!("machine: {}", harness::machine());
     let filter: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))

@@ -68,6 +68,11 @@ pub fn put<T: Wire>(buf: &mut [u8], at: usize, value: T) {
 /// This is how a receiver treats a truncated (MAVLink 2) or newer, longer payload.
 #[inline(always)]
 pub fn zero_extend<const N: usize>(payload: &[u8]) -> [u8; N] {
+    // A whole payload is a copy of known size, which compiles to a few moves, where a copy of
+    // run-time length is a call to memcpy whose byte stores the field loads then wait on.
+    if let Some(whole) = payload.first_chunk::<N>() {
+        return *whole;
+    }
     let mut out = [0u8; N];
     let n = payload.len().min(N);
     out[..n].copy_from_slice(&payload[..n]);

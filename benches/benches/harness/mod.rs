@@ -56,3 +56,16 @@ pub fn compare(mut a: impl FnMut(u64), mut b: impl FnMut(u64)) -> (f64, f64) {
     }
     (median(ta), median(tb))
 }
+
+/// The CPU model and how many cores there are, for every report.
+pub fn machine() -> String {
+    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let model = cpuinfo
+        .lines()
+        .find_map(|l| l.strip_prefix("model name"))
+        .and_then(|l| l.split_once(':'))
+        .map_or("unknown CPU", |(_, m)| m.trim())
+        .to_owned();
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    format!("{model}, {cores} cores")
+}

@@ -483,11 +483,20 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
     });
     let decodes = all.iter().map(|(_, msg)| {
         let (v, id) = (ident(&msg.name.rust), msg.id);
-        quote!(#id => Self::#v(::ferrolink_runtime::mavlink::Message::decode(payload)),)
+        quote!(#id => *out = Self::#v(::ferrolink_runtime::mavlink::Message::decode(payload)),)
     });
     let ids = all.iter().map(|(_, msg)| {
         let (v, id) = (ident(&msg.name.rust), msg.id);
         quote!(Self::#v(_) => #id,)
+    });
+    // Id dispatch the compiler turns into a jump table, instead of a search of META.
+    let metas_by_id = all.iter().enumerate().map(|(i, (_, msg))| {
+        let id = msg.id;
+        quote!(#id => ::core::option::Option::Some(&Self::META[#i]),)
+    });
+    let metas_by_variant = all.iter().enumerate().map(|(i, (_, msg))| {
+        let v = ident(&msg.name.rust);
+        quote!(Self::#v(_) => &Self::META[#i],)
     });
     let encodes = all.iter().map(|(_, msg)| {
         let v = ident(&msg.name.rust);
@@ -504,22 +513,42 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
             }
         }
     });
-    let decode_body = if all.is_empty() {
-        quote!(let _ = payload; ::core::result::Result::Err(::ferrolink_runtime::mavlink::UnknownMessageId(id)))
-    } else {
-        quote! {
-            ::core::result::Result::Ok(match id {
-                #( #decodes )*
-                _ => return ::core::result::Result::Err(::ferrolink_runtime::mavlink::UnknownMessageId(id)),
-            })
+    // `decode` starts from the first message and decodes into it, so that every message's
+    // decoding is inlined once, into `decode_into`.
+    let (decode_body, decode_into_body) = match all.first() {
+        None => (
+            quote!(let _ = payload; ::core::result::Result::Err(::ferrolink_runtime::mavlink::UnknownMessageId(id))),
+            quote!(let _ = (payload, out); ::core::result::Result::Err(::ferrolink_runtime::mavlink::UnknownMessageId(id))),
+        ),
+        Some((_, first)) => {
+            let v = ident(&first.name.rust);
+            (
+                quote! {
+                    let mut out = Self::#v(::core::default::Default::default());
+                    Self::decode_into(id, payload, &mut out)?;
+                    ::core::result::Result::Ok(out)
+                },
+                quote! {
+                    match id {
+                        #( #decodes )*
+                        _ => return ::core::result::Result::Err(::ferrolink_runtime::mavlink::UnknownMessageId(id)),
+                    }
+                    ::core::result::Result::Ok(())
+                },
+            )
         }
     };
-    let (id_body, encode_body) = if all.is_empty() {
-        (quote!(match *self {}), quote!(let _ = buf; match *self {}))
+    let (id_body, encode_body, meta_body) = if all.is_empty() {
+        (
+            quote!(match *self {}),
+            quote!(let _ = buf; match *self {}),
+            quote!(match *self {}),
+        )
     } else {
         (
             quote!(match self { #( #ids )* }),
             quote!(match self { #( #encodes )* }),
+            quote!(match self { #( #metas_by_variant )* }),
         )
     };
     quote! {
@@ -535,8 +564,13 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
                 impl ::ferrolink_runtime::mavlink::Dialect for Message {
             const META: &'static [::ferrolink_runtime::mavlink::MessageMeta] = &[ #( #metas )* ];
 
+            #[inline]
             fn decode(id: u32, payload: &[u8]) -> ::core::result::Result<Self, ::ferrolink_runtime::mavlink::UnknownMessageId> {
                 #decode_body
+            }
+
+            fn decode_into(id: u32, payload: &[u8], out: &mut Self) -> ::core::result::Result<(), ::ferrolink_runtime::mavlink::UnknownMessageId> {
+                #decode_into_body
             }
 
             fn id(&self) -> u32 {
@@ -545,6 +579,19 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
 
             fn encode(&self, buf: &mut ::ferrolink_runtime::mavlink::PayloadBuf) -> usize {
                 #encode_body
+            }
+
+            #[inline]
+            fn meta(&self) -> &'static ::ferrolink_runtime::mavlink::MessageMeta {
+                #meta_body
+            }
+
+            #[inline]
+            fn meta_of(id: u32) -> ::core::option::Option<&'static ::ferrolink_runtime::mavlink::MessageMeta> {
+                match id {
+                    #( #metas_by_id )*
+                    _ => ::core::option::Option::None,
+                }
             }
         }
 

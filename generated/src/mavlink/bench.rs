@@ -620,79 +620,96 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
             target_component: ::core::option::Option::None,
         },
     ];
+    #[inline]
     fn decode(
         id: u32,
         payload: &[u8],
     ) -> ::core::result::Result<Self, ::ferrolink_runtime::mavlink::UnknownMessageId> {
-        ::core::result::Result::Ok(
-            match id {
-                0u32 => {
-                    Self::Heartbeat(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                2u32 => {
-                    Self::SystemTime(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                4u32 => {
-                    Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload))
-                }
-                30u32 => {
-                    Self::Attitude(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                76u32 => {
-                    Self::CommandLong(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                77u32 => {
-                    Self::CommandAck(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                110u32 => {
-                    Self::FileTransferProtocol(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                180u32 => {
-                    Self::Bench1(::ferrolink_runtime::mavlink::Message::decode(payload))
-                }
-                181u32 => {
-                    Self::Bench9(::ferrolink_runtime::mavlink::Message::decode(payload))
-                }
-                182u32 => {
-                    Self::Bench16(::ferrolink_runtime::mavlink::Message::decode(payload))
-                }
-                183u32 => {
-                    Self::Bench40(::ferrolink_runtime::mavlink::Message::decode(payload))
-                }
-                184u32 => {
-                    Self::Bench200(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                185u32 => {
-                    Self::Bench248(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                253u32 => {
-                    Self::Statustext(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                _ => {
-                    return ::core::result::Result::Err(
-                        ::ferrolink_runtime::mavlink::UnknownMessageId(id),
-                    );
-                }
-            },
-        )
+        let mut out = Self::Heartbeat(::core::default::Default::default());
+        Self::decode_into(id, payload, &mut out)?;
+        ::core::result::Result::Ok(out)
+    }
+    fn decode_into(
+        id: u32,
+        payload: &[u8],
+        out: &mut Self,
+    ) -> ::core::result::Result<(), ::ferrolink_runtime::mavlink::UnknownMessageId> {
+        match id {
+            0u32 => {
+                *out = Self::Heartbeat(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            2u32 => {
+                *out = Self::SystemTime(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            4u32 => {
+                *out = Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload));
+            }
+            30u32 => {
+                *out = Self::Attitude(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            76u32 => {
+                *out = Self::CommandLong(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            77u32 => {
+                *out = Self::CommandAck(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            110u32 => {
+                *out = Self::FileTransferProtocol(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            180u32 => {
+                *out = Self::Bench1(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            181u32 => {
+                *out = Self::Bench9(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            182u32 => {
+                *out = Self::Bench16(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            183u32 => {
+                *out = Self::Bench40(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            184u32 => {
+                *out = Self::Bench200(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            185u32 => {
+                *out = Self::Bench248(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            253u32 => {
+                *out = Self::Statustext(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            _ => {
+                return ::core::result::Result::Err(
+                    ::ferrolink_runtime::mavlink::UnknownMessageId(id),
+                );
+            }
+        }
+        ::core::result::Result::Ok(())
     }
     fn id(&self) -> u32 {
         match self {
@@ -730,6 +747,47 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
             Self::Bench200(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
             Self::Bench248(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
             Self::Statustext(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
+        }
+    }
+    #[inline]
+    fn meta(&self) -> &'static ::ferrolink_runtime::mavlink::MessageMeta {
+        match self {
+            Self::Heartbeat(_) => &Self::META[0usize],
+            Self::SystemTime(_) => &Self::META[1usize],
+            Self::Ping(_) => &Self::META[2usize],
+            Self::Attitude(_) => &Self::META[3usize],
+            Self::CommandLong(_) => &Self::META[4usize],
+            Self::CommandAck(_) => &Self::META[5usize],
+            Self::FileTransferProtocol(_) => &Self::META[6usize],
+            Self::Bench1(_) => &Self::META[7usize],
+            Self::Bench9(_) => &Self::META[8usize],
+            Self::Bench16(_) => &Self::META[9usize],
+            Self::Bench40(_) => &Self::META[10usize],
+            Self::Bench200(_) => &Self::META[11usize],
+            Self::Bench248(_) => &Self::META[12usize],
+            Self::Statustext(_) => &Self::META[13usize],
+        }
+    }
+    #[inline]
+    fn meta_of(
+        id: u32,
+    ) -> ::core::option::Option<&'static ::ferrolink_runtime::mavlink::MessageMeta> {
+        match id {
+            0u32 => ::core::option::Option::Some(&Self::META[0usize]),
+            2u32 => ::core::option::Option::Some(&Self::META[1usize]),
+            4u32 => ::core::option::Option::Some(&Self::META[2usize]),
+            30u32 => ::core::option::Option::Some(&Self::META[3usize]),
+            76u32 => ::core::option::Option::Some(&Self::META[4usize]),
+            77u32 => ::core::option::Option::Some(&Self::META[5usize]),
+            110u32 => ::core::option::Option::Some(&Self::META[6usize]),
+            180u32 => ::core::option::Option::Some(&Self::META[7usize]),
+            181u32 => ::core::option::Option::Some(&Self::META[8usize]),
+            182u32 => ::core::option::Option::Some(&Self::META[9usize]),
+            183u32 => ::core::option::Option::Some(&Self::META[10usize]),
+            184u32 => ::core::option::Option::Some(&Self::META[11usize]),
+            185u32 => ::core::option::Option::Some(&Self::META[12usize]),
+            253u32 => ::core::option::Option::Some(&Self::META[13usize]),
+            _ => ::core::option::Option::None,
         }
     }
 }

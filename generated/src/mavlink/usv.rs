@@ -189,62 +189,71 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
             target_component: ::core::option::Option::None,
         },
     ];
+    #[inline]
     fn decode(
         id: u32,
         payload: &[u8],
     ) -> ::core::result::Result<Self, ::ferrolink_runtime::mavlink::UnknownMessageId> {
-        ::core::result::Result::Ok(
-            match id {
-                0u32 => {
-                    Self::Heartbeat(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                2u32 => {
-                    Self::SystemTime(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                4u32 => {
-                    Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload))
-                }
-                30u32 => {
-                    Self::Attitude(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                76u32 => {
-                    Self::CommandLong(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                77u32 => {
-                    Self::CommandAck(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                110u32 => {
-                    Self::FileTransferProtocol(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                150u32 => {
-                    Self::RudderRaw(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                253u32 => {
-                    Self::Statustext(
-                        ::ferrolink_runtime::mavlink::Message::decode(payload),
-                    )
-                }
-                _ => {
-                    return ::core::result::Result::Err(
-                        ::ferrolink_runtime::mavlink::UnknownMessageId(id),
-                    );
-                }
-            },
-        )
+        let mut out = Self::Heartbeat(::core::default::Default::default());
+        Self::decode_into(id, payload, &mut out)?;
+        ::core::result::Result::Ok(out)
+    }
+    fn decode_into(
+        id: u32,
+        payload: &[u8],
+        out: &mut Self,
+    ) -> ::core::result::Result<(), ::ferrolink_runtime::mavlink::UnknownMessageId> {
+        match id {
+            0u32 => {
+                *out = Self::Heartbeat(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            2u32 => {
+                *out = Self::SystemTime(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            4u32 => {
+                *out = Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload));
+            }
+            30u32 => {
+                *out = Self::Attitude(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            76u32 => {
+                *out = Self::CommandLong(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            77u32 => {
+                *out = Self::CommandAck(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            110u32 => {
+                *out = Self::FileTransferProtocol(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            150u32 => {
+                *out = Self::RudderRaw(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            253u32 => {
+                *out = Self::Statustext(
+                    ::ferrolink_runtime::mavlink::Message::decode(payload),
+                );
+            }
+            _ => {
+                return ::core::result::Result::Err(
+                    ::ferrolink_runtime::mavlink::UnknownMessageId(id),
+                );
+            }
+        }
+        ::core::result::Result::Ok(())
     }
     fn id(&self) -> u32 {
         match self {
@@ -272,6 +281,37 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
             }
             Self::RudderRaw(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
             Self::Statustext(m) => ::ferrolink_runtime::mavlink::Message::encode(m, buf),
+        }
+    }
+    #[inline]
+    fn meta(&self) -> &'static ::ferrolink_runtime::mavlink::MessageMeta {
+        match self {
+            Self::Heartbeat(_) => &Self::META[0usize],
+            Self::SystemTime(_) => &Self::META[1usize],
+            Self::Ping(_) => &Self::META[2usize],
+            Self::Attitude(_) => &Self::META[3usize],
+            Self::CommandLong(_) => &Self::META[4usize],
+            Self::CommandAck(_) => &Self::META[5usize],
+            Self::FileTransferProtocol(_) => &Self::META[6usize],
+            Self::RudderRaw(_) => &Self::META[7usize],
+            Self::Statustext(_) => &Self::META[8usize],
+        }
+    }
+    #[inline]
+    fn meta_of(
+        id: u32,
+    ) -> ::core::option::Option<&'static ::ferrolink_runtime::mavlink::MessageMeta> {
+        match id {
+            0u32 => ::core::option::Option::Some(&Self::META[0usize]),
+            2u32 => ::core::option::Option::Some(&Self::META[1usize]),
+            4u32 => ::core::option::Option::Some(&Self::META[2usize]),
+            30u32 => ::core::option::Option::Some(&Self::META[3usize]),
+            76u32 => ::core::option::Option::Some(&Self::META[4usize]),
+            77u32 => ::core::option::Option::Some(&Self::META[5usize]),
+            110u32 => ::core::option::Option::Some(&Self::META[6usize]),
+            150u32 => ::core::option::Option::Some(&Self::META[7usize]),
+            253u32 => ::core::option::Option::Some(&Self::META[8usize]),
+            _ => ::core::option::Option::None,
         }
     }
 }

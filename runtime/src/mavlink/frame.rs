@@ -208,6 +208,12 @@ impl<T: AsRef<[u8]>> AnyFrame<T> {
     pub fn decode<D: Dialect>(&self) -> Result<D, UnknownMessageId> {
         D::decode(self.msg_id(), self.payload())
     }
+
+    /// Decodes like `decode`, into `out` (see [`Dialect::decode_into`]).
+    #[inline]
+    pub fn decode_into<D: Dialect>(&self, out: &mut D) -> Result<(), UnknownMessageId> {
+        D::decode_into(self.msg_id(), self.payload(), out)
+    }
 }
 
 /// Whether `byte` starts a frame of either version.

@@ -108,6 +108,14 @@ pub trait Dialect: Sized {
     /// Decodes the payload of message `id` (zero-filling or cutting it as [`Message::decode`]).
     fn decode(id: u32, payload: &[u8]) -> Result<Self, UnknownMessageId>;
 
+    /// Decodes like [`Dialect::decode`], into `out`: only the message's own bytes are written,
+    /// where returning the enum by value moves all of it (as large as the largest message).
+    /// On an unknown id `out` is left as it was.
+    fn decode_into(id: u32, payload: &[u8], out: &mut Self) -> Result<(), UnknownMessageId> {
+        *out = Self::decode(id, payload)?;
+        Ok(())
+    }
+
     /// The message id.
     fn id(&self) -> u32;
 

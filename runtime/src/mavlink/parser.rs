@@ -157,6 +157,12 @@ impl<'p> ParsedFrame<'p> {
     pub fn decode<D: Dialect>(&self) -> Result<D, UnknownMessageId> {
         self.frame.decode()
     }
+
+    /// Decodes like `decode`, into `out` (see [`Dialect::decode_into`]).
+    #[inline]
+    pub fn decode_into<D: Dialect>(&self, out: &mut D) -> Result<(), UnknownMessageId> {
+        self.frame.decode_into(out)
+    }
 }
 
 /// Why a candidate was dropped.
@@ -210,6 +216,9 @@ pub struct Parser<const N: usize = { v2::MAX_FRAME_LEN }> {
     /// Length of the frame handed out from `buf[start..]`, dropped at the next `feed`.
     pending: usize,
     table: &'static [MessageMeta],
+    /// The dialect's own id dispatch ([`Dialect::meta_of`], a jump table), if the parser was
+    /// made for a dialect; else `table` is searched.
+    find: Option<fn(u32) -> Option<&'static MessageMeta>>,
     pass_unknown: bool,
     stats: Stats,
 }
@@ -242,6 +251,7 @@ impl<const N: usize> Parser<N> {
             end: 0,
             pending: 0,
             table,
+            find: None,
             pass_unknown: false,
             stats: Stats {
                 frames: 0,
@@ -254,9 +264,11 @@ impl<const N: usize> Parser<N> {
         }
     }
 
-    /// A parser for dialect `D`.
+    /// A parser for dialect `D`, looking ids up through the dialect's own dispatch.
     pub const fn for_dialect<D: Dialect>() -> Self {
-        Self::new(D::META)
+        let mut parser = Self::new(D::META);
+        parser.find = Some(D::meta_of);
+        parser
     }
 
     /// Whether frames with unknown message ids are handed out unchecked instead of dropped
@@ -472,7 +484,11 @@ impl<const N: usize> Parser<N> {
 
     #[inline]
     fn lookup(&self, id: u32) -> Result<Option<&'static MessageMeta>, Reject> {
-        match find_meta(self.table, id) {
+        let found = match self.find {
+            Some(find) => find(id),
+            None => find_meta(self.table, id),
+        };
+        match found {
             Some(meta) => Ok(Some(meta)),
             None if self.pass_unknown => Ok(None),
             None => Err(Reject::UnknownId),

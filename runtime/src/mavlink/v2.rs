@@ -272,6 +272,12 @@ impl<T: AsRef<[u8]>> Frame<T> {
         D::decode(self.msg_id(), self.payload())
     }
 
+    /// Decodes like `decode`, into `out` (see [`Dialect::decode_into`]).
+    #[inline]
+    pub fn decode_into<D: Dialect>(&self, out: &mut D) -> Result<(), UnknownMessageId> {
+        D::decode_into(self.msg_id(), self.payload(), out)
+    }
+
     /// Decodes the payload as message `M`, whatever the frame's id (check it first).
     #[inline]
     pub fn decode_message<M: Message>(&self) -> M {

@@ -120,6 +120,20 @@ fn check_vector(line: &str) -> Result<(), Error> {
         )
         .into());
     }
+    // Into a message of another kind (HEARTBEAT, where the dialect has it): the same message.
+    let mut into = Message::decode(0, &[]).unwrap_or_else(|_| decoded.clone());
+    frame.decode_into(&mut into)?;
+    if into != expected {
+        return Err(format!("{}: decode_into differs: {into:?}", v.name).into());
+    }
+    // The dialect's id dispatch agrees with a search of its table.
+    let found = ferrolink_runtime::mavlink::find_meta(Message::META, v.id);
+    if Message::meta_of(v.id) != found
+        || found.map(|m| m.id) != Some(v.id)
+        || expected.meta() != found.unwrap_or(meta)
+    {
+        return Err(format!("{}: meta_of or meta disagrees with META", v.name).into());
+    }
     let streamed = parse_all(&v2_bytes)?;
     if streamed != [(header, expected.clone())] {
         return Err(format!("{}: the stream parser gave {streamed:?}", v.name).into());
