@@ -16,6 +16,50 @@ fn main() {
         .unwrap_or_else(|e| panic!("{e}"));
     let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     std::fs::write(out.join("common_facts.rs"), facts(&xml)).expect("write common_facts.rs");
+    println!("cargo::rustc-check-cfg=cfg(c_mavlink)");
+    match c_library(&xml, &out) {
+        Ok(()) => println!("cargo::rustc-cfg=c_mavlink"),
+        Err(why) => {
+            println!("cargo::warning=the MAVLink C library is left out of the benchmarks: {why}")
+        }
+    }
+}
+
+/// Generates the MAVLink C library for `xml` with pymavlink's mavgen (from the Python that
+/// `FERROLINK_PYTHON` names, else the workspace's `.venv`) and builds `c/mavlink_c.c` on it.
+fn c_library(xml: &Path, out: &Path) -> Result<(), String> {
+    println!("cargo:rerun-if-changed=c/mavlink_c.c");
+    println!("cargo:rerun-if-env-changed=FERROLINK_PYTHON");
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let python = std::env::var_os("FERROLINK_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace.join(".venv/bin/python"));
+    let headers = out.join("mavlink-c");
+    let status = std::process::Command::new(&python)
+        .args([
+            "-m",
+            "pymavlink.tools.mavgen",
+            "--lang=C",
+            "--wire-protocol=2.0",
+            "--output",
+        ])
+        .arg(&headers)
+        .arg(xml)
+        .stdout(std::process::Stdio::null())
+        .status()
+        .map_err(|e| format!("cannot run {}: {e}", python.display()))?;
+    if !status.success() {
+        return Err(format!(
+            "mavgen failed ({status}); is pymavlink installed for {}?",
+            python.display()
+        ));
+    }
+    cc::Build::new()
+        .file("c/mavlink_c.c")
+        .include(&headers)
+        .warnings(false)
+        .try_compile("mavlink_c")
+        .map_err(|e| e.to_string())
 }
 
 /// The file's path, and the fields whose values both sides must agree on: enum fields get a

@@ -45,6 +45,24 @@ pub fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Median seconds per call of three operations, from batches taking turns (the MAVLink bench
+/// compares three implementations; the others, two).
+#[allow(dead_code)]
+pub fn compare3(
+    mut a: impl FnMut(u64),
+    mut b: impl FnMut(u64),
+    mut c: impl FnMut(u64),
+) -> (f64, f64, f64) {
+    let (ra, rb, rc) = (calibrate(&mut a), calibrate(&mut b), calibrate(&mut c));
+    let (mut ta, mut tb, mut tc) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..BATCHES {
+        ta.push(run_batch(&mut a, ra).as_secs_f64() / ra as f64);
+        tb.push(run_batch(&mut b, rb).as_secs_f64() / rb as f64);
+        tc.push(run_batch(&mut c, rc).as_secs_f64() / rc as f64);
+    }
+    (median(ta), median(tb), median(tc))
+}
+
 /// Median seconds per call of each operation, from alternating batches.
 pub fn compare(mut a: impl FnMut(u64), mut b: impl FnMut(u64)) -> (f64, f64) {
     let (ra, rb) = (calibrate(&mut a), calibrate(&mut b));
