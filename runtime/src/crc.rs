@@ -22,6 +22,15 @@ pub fn mcrf4xx(data: &[u8]) -> u16 {
     MCRF4XX.checksum(data)
 }
 
+/// Continues a CRC-16/MCRF4XX over one more byte, through the same table. The algorithm has no
+/// final xor and reflects input and output alike, so a finished checksum is also the running
+/// value: `mcrf4xx_step(mcrf4xx(data), b) == mcrf4xx(data ++ [b])`. MAVLink appends CRC_EXTRA
+/// this way, without a second pass through the table code.
+#[inline]
+pub fn mcrf4xx_step(crc: u16, byte: u8) -> u16 {
+    MCRF4XX.table()[0][usize::from(crc.to_le_bytes()[0] ^ byte)] ^ (crc >> 8)
+}
+
 /// A fresh running CRC-16/MCRF4XX.
 #[inline]
 pub fn mcrf4xx_digest() -> Mcrf4xxDigest {
@@ -31,6 +40,14 @@ pub fn mcrf4xx_digest() -> Mcrf4xxDigest {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_checksum_continues_byte_by_byte() {
+        let data = b"123456789 and then some more bytes than one table step takes";
+        for n in 0..data.len() {
+            assert_eq!(mcrf4xx_step(mcrf4xx(&data[..n]), data[n]), mcrf4xx(&data[..=n]));
+        }
+    }
 
     #[test]
     fn check_value() {

@@ -430,7 +430,7 @@ fn emit_message(ctx: &Ctx<'_>, msg: &Message, version: u8) -> TokenStream {
                 #max_len
             }
 
-            #[inline]
+            #[inline(always)]
             fn decode(payload: &[u8]) -> Self {
                 let p = &::ferrolink_runtime::wire::zero_extend::<#max_len>(payload);
                 Self { #( #gets )* }

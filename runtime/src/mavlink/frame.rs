@@ -3,7 +3,7 @@
 
 use super::error::{EncodeError, FrameError};
 use super::{v1, v2, Dialect, PayloadBuf, UnknownMessageId, MAX_PAYLOAD_LEN};
-use crate::crc::mcrf4xx_digest;
+use crate::crc::{mcrf4xx, mcrf4xx_digest, mcrf4xx_step};
 
 /// The sender fields of a frame header: what an encoder needs besides the message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -230,15 +230,14 @@ pub(crate) fn checksum(head_after_magic: &[u8], payload: &[u8], crc_extra: u8) -
     let mut digest = mcrf4xx_digest();
     digest.update(head_after_magic);
     digest.update(payload);
-    digest.update(&[crc_extra]);
-    digest.finalize()
+    mcrf4xx_step(digest.finalize(), crc_extra)
 }
 
 /// The checksum of a whole frame buffer: `body` is the frame from the magic byte to the end of
-/// the payload. Returns 0 for an empty body (never a real frame).
+/// the payload. One pass over the body, then CRC_EXTRA.
 #[inline]
 pub(crate) fn body_checksum(body: &[u8], crc_extra: u8) -> u16 {
-    checksum(body.get(1..).unwrap_or_default(), &[], crc_extra)
+    mcrf4xx_step(mcrf4xx(body.get(1..).unwrap_or_default()), crc_extra)
 }
 
 /// Reads a little-endian `u16` at `at`, or 0 if `bytes` is too short.
