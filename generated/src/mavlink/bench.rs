@@ -51,7 +51,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench1 {
         ::ferrolink_runtime::wire::put(buf, 0, self.value);
         1
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<1>(payload);
         Self {
@@ -117,7 +117,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench9 {
         ::ferrolink_runtime::wire::put(buf, 6, self.c);
         9
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<9>(payload);
         Self {
@@ -194,7 +194,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench16 {
         ::ferrolink_runtime::wire::put(buf, 14, self.z);
         16
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<16>(payload);
         Self {
@@ -276,7 +276,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench40 {
         ::ferrolink_runtime::wire::put(buf, 36, self.s);
         40
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<40>(payload);
         Self {
@@ -351,7 +351,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench200 {
         ::ferrolink_runtime::wire::put(buf, 184, self.flags);
         200
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<200>(payload);
         Self {
@@ -435,7 +435,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench248 {
         ::ferrolink_runtime::wire::put(buf, 232, self.raw);
         248
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<248>(payload);
         Self {

@@ -363,7 +363,7 @@ impl ::ferrolink_runtime::mavlink::Message for Heartbeat {
         ::ferrolink_runtime::wire::put(buf, 8, 3u8);
         9
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<9>(payload);
         Self {
@@ -431,7 +431,7 @@ impl ::ferrolink_runtime::mavlink::Message for SystemTime {
         ::ferrolink_runtime::wire::put(buf, 8, self.time_boot_ms);
         12
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<12>(payload);
         Self {
@@ -499,7 +499,7 @@ impl ::ferrolink_runtime::mavlink::Message for Ping {
         ::ferrolink_runtime::wire::put(buf, 13, self.target_component);
         14
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<14>(payload);
         Self {
@@ -614,7 +614,7 @@ impl ::ferrolink_runtime::mavlink::Message for Attitude {
         ::ferrolink_runtime::wire::put(buf, 24, self.yawspeed);
         28
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<28>(payload);
         Self {
@@ -734,7 +734,7 @@ impl ::ferrolink_runtime::mavlink::Message for CommandLong {
         ::ferrolink_runtime::wire::put(buf, 32, self.confirmation);
         33
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<33>(payload);
         Self {
@@ -823,7 +823,7 @@ impl ::ferrolink_runtime::mavlink::Message for CommandAck {
         ::ferrolink_runtime::wire::put(buf, 9, self.target_component);
         10
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<10>(payload);
         Self {
@@ -897,7 +897,7 @@ impl ::ferrolink_runtime::mavlink::Message for FileTransferProtocol {
         ::ferrolink_runtime::wire::put(buf, 3, self.payload);
         254
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<254>(payload);
         Self {
@@ -969,7 +969,7 @@ impl ::ferrolink_runtime::mavlink::Message for Statustext {
         ::ferrolink_runtime::wire::put(buf, 53, self.chunk_seq);
         54
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<54>(payload);
         Self {

@@ -60,7 +60,7 @@ impl ::ferrolink_runtime::mavlink::Message for RudderRaw {
         ::ferrolink_runtime::wire::put(buf, 4, self.starboard_limit);
         5
     }
-    #[inline]
+    #[inline(always)]
     fn decode(payload: &[u8]) -> Self {
         let p = &::ferrolink_runtime::wire::zero_extend::<5>(payload);
         Self {
