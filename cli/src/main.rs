@@ -110,6 +110,38 @@ fn main() -> ExitCode {
     }
 }
 
+/// The `encode` commands' loop: every non-empty line of stdin through `encode`, each frame printed
+/// as hex; a line that does not encode is reported as `stdin:N: why` and makes the exit status
+/// 1, and the others are still encoded.
+fn encode_lines(
+    mut encode: impl FnMut(usize, &str) -> Result<Vec<u8>, String>,
+) -> Result<ExitCode, Box<dyn std::error::Error>> {
+    use std::io::{BufRead, Write};
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let mut failed = false;
+    for (n, line) in std::io::stdin().lock().lines().enumerate() {
+        let line = line?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        match encode(n, &line) {
+            Ok(frame) => writeln!(out, "{}", hex::encode(frame))?,
+            Err(e) => {
+                out.flush()?;
+                eprintln!("stdin:{}: {e}", n + 1);
+                failed = true;
+            }
+        }
+    }
+    out.flush()?;
+    Ok(if failed {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
 fn print_warnings(warnings: &[ferrolink_codegen::Diagnostic]) {
     for w in warnings {
         eprintln!("{w}\n");

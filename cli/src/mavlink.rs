@@ -275,43 +275,21 @@ fn read_config(path: &Path) -> Result<FileConfig, String> {
     Ok(file)
 }
 
-/// `ferrolink mavlink encode`: JSON lines in, frames in hex out; a line that does not encode is
-/// reported with its number and makes the exit status 1, the others are still encoded.
+/// `ferrolink mavlink encode`: JSON lines in, unsigned MAVLink 2 frames in hex out, sent as
+/// system 255, component 190, the line number as the sequence, unless the envelope says otherwise.
 fn encode(dialect: &[PathBuf]) -> Result<ExitCode, Box<dyn std::error::Error>> {
     use ferrolink_codegen::traffic::FrameDefaults;
     let dialects = Dialects::load(dialect)?;
     let decoder = dialects.decoder();
-    let stdout = io::stdout();
-    let mut out = BufWriter::new(stdout.lock());
-    let mut failed = false;
-    for (n, line) in io::stdin().lines().enumerate() {
-        let line = line?;
-        if line.trim().is_empty() {
-            continue;
-        }
+    crate::encode_lines(|n, line| {
+        let value = serde_json::from_str(line).map_err(|e| e.to_string())?;
         let defaults = FrameDefaults {
             sysid: 255,
             compid: 190,
             seq: n as u8,
             target: None,
         };
-        let frame = serde_json::from_str(&line)
-            .map_err(|e| e.to_string())
-            .and_then(|value| decoder.frame_from_json(&value, defaults));
-        match frame {
-            Ok(frame) => writeln!(out, "{}", hex::encode(frame))?,
-            Err(e) => {
-                out.flush()?;
-                eprintln!("line {}: {e}", n + 1);
-                failed = true;
-            }
-        }
-    }
-    out.flush()?;
-    Ok(if failed {
-        ExitCode::FAILURE
-    } else {
-        ExitCode::SUCCESS
+        decoder.frame_from_json(&value, defaults)
     })
 }
 

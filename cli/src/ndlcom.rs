@@ -258,39 +258,16 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
 }
 
 fn encode() -> Result<ExitCode, Box<dyn std::error::Error>> {
-    let stdout = io::stdout();
-    let mut out = io::BufWriter::new(stdout.lock());
-    let mut failed = false;
     let mut buf = [0u8; ndlcom::MAX_FRAME_LEN];
-    for (n, line) in io::stdin().lock().lines().enumerate() {
-        let line = line?;
-        if line.trim().is_empty() {
-            continue;
-        }
-        let frame = serde_json::from_str::<FrameJson>(&line)
-            .map_err(|e| e.to_string())
-            .and_then(|f| {
-                let payload = hex::decode(f.payload.trim())
-                    .map_err(|e| format!("payload is not hex: {e}"))?;
-                let length = u8::try_from(payload.len())
-                    .map_err(|_| format!("payload of {} bytes exceeds 255", payload.len()))?;
-                let header = Header::new(f.receiver, f.sender, f.counter, length);
-                ndlcom::encode(&header, &payload, &mut buf).map_err(|e| e.to_string())
-            });
-        match frame {
-            Ok(len) => writeln!(out, "{}", hex::encode(&buf[..len]))?,
-            Err(e) => {
-                out.flush()?;
-                eprintln!("stdin:{}: {e}", n + 1);
-                failed = true;
-            }
-        }
-    }
-    out.flush()?;
-    Ok(if failed {
-        ExitCode::FAILURE
-    } else {
-        ExitCode::SUCCESS
+    crate::encode_lines(|_, line| {
+        let f = serde_json::from_str::<FrameJson>(line).map_err(|e| e.to_string())?;
+        let payload =
+            hex::decode(f.payload.trim()).map_err(|e| format!("payload is not hex: {e}"))?;
+        let length = u8::try_from(payload.len())
+            .map_err(|_| format!("payload of {} bytes exceeds 255", payload.len()))?;
+        let header = Header::new(f.receiver, f.sender, f.counter, length);
+        let len = ndlcom::encode(&header, &payload, &mut buf).map_err(|e| e.to_string())?;
+        Ok(buf[..len].to_vec())
     })
 }
 

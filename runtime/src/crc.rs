@@ -45,7 +45,10 @@ mod tests {
     fn a_checksum_continues_byte_by_byte() {
         let data = b"123456789 and then some more bytes than one table step takes";
         for n in 0..data.len() {
-            assert_eq!(mcrf4xx_step(mcrf4xx(&data[..n]), data[n]), mcrf4xx(&data[..=n]));
+            assert_eq!(
+                mcrf4xx_step(mcrf4xx(&data[..n]), data[n]),
+                mcrf4xx(&data[..=n])
+            );
         }
     }
 
