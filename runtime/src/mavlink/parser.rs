@@ -215,6 +215,9 @@ pub struct Parser<const N: usize = { v2::MAX_FRAME_LEN }> {
     end: usize,
     /// Length of the frame handed out from `buf[start..]`, dropped at the next `feed`.
     pending: usize,
+    /// How many bytes the candidate at `buf[start]` needs before it is worth judging again (0:
+    /// judge it now). Bytes fed one at a time are then only appended.
+    need: usize,
     table: &'static [MessageMeta],
     /// The dialect's own id dispatch ([`Dialect::meta_of`], a jump table), if the parser was
     /// made for a dialect; else `table` is searched.
@@ -250,6 +253,7 @@ impl<const N: usize> Parser<N> {
             start: 0,
             end: 0,
             pending: 0,
+            need: 0,
             table,
             find: None,
             pass_unknown: false,
@@ -310,6 +314,7 @@ impl<const N: usize> Parser<N> {
         self.start = 0;
         self.end = 0;
         self.pending = 0;
+        self.need = 0;
     }
 
     /// Feeds bytes and returns the first complete frame, if any, with the input after it.
@@ -317,27 +322,38 @@ impl<const N: usize> Parser<N> {
     /// Call `feed` again with `remaining` until it returns [`Feed::Consumed`]. A frame returned
     /// from the internal buffer stays valid until the next call.
     pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'p, 'a> {
-        self.start += self.pending;
-        self.pending = 0;
+        if self.pending > 0 {
+            self.start += self.pending;
+            self.pending = 0;
+            self.need = 0;
+        }
 
         let found = 'found: {
             // Buffered candidate first: it came before `input`.
             while self.start < self.end {
                 let cand = self.buf.get(self.start..self.end).unwrap_or_default();
-                match cand.iter().position(|&b| is_magic(b)) {
-                    Some(0) => {}
-                    Some(skip) => {
-                        self.stats.garbage_bytes += skip as u64;
-                        self.start += skip;
-                        continue;
+                let verdict = if cand.len() < self.need {
+                    // Judged before and still short: its first byte is the magic byte it was
+                    // judged at.
+                    Eval::NeedMore(self.need)
+                } else {
+                    match cand.iter().position(|&b| is_magic(b)) {
+                        Some(0) => {}
+                        Some(skip) => {
+                            self.stats.garbage_bytes += skip as u64;
+                            self.start += skip;
+                            self.need = 0;
+                            continue;
+                        }
+                        None => {
+                            self.stats.garbage_bytes += cand.len() as u64;
+                            self.start = self.end;
+                            break;
+                        }
                     }
-                    None => {
-                        self.stats.garbage_bytes += cand.len() as u64;
-                        self.start = self.end;
-                        break;
-                    }
-                }
-                match self.evaluate(cand) {
+                    self.evaluate(cand)
+                };
+                match verdict {
                     Eval::Accept { len, meta } => {
                         self.pending = len;
                         break 'found Found::Buffer(len, meta);
@@ -345,19 +361,26 @@ impl<const N: usize> Parser<N> {
                     Eval::Reject(why) => {
                         self.count(why);
                         self.start += 1;
+                        self.need = 0;
                     }
                     Eval::NeedMore(need) => {
+                        self.need = need;
                         if input.is_empty() {
                             return Feed::Consumed;
                         }
                         let take = need.saturating_sub(cand.len()).min(input.len());
                         self.append(need, input.get(..take).unwrap_or_default());
                         input = input.get(take..).unwrap_or_default();
+                        if self.end - self.start < need {
+                            // The input ran out first.
+                            return Feed::Consumed;
+                        }
                     }
                 }
             }
             self.start = 0;
             self.end = 0;
+            self.need = 0;
 
             // Nothing buffered: work on the input directly.
             loop {
@@ -377,9 +400,10 @@ impl<const N: usize> Parser<N> {
                         self.count(why);
                         input = input.get(1..).unwrap_or_default();
                     }
-                    Eval::NeedMore(_) => {
+                    Eval::NeedMore(need) => {
                         // Shorter than the candidate needs, so shorter than a frame: it fits.
                         self.append(input.len(), input);
+                        self.need = need;
                         return Feed::Consumed;
                     }
                 }
@@ -451,6 +475,12 @@ impl<const N: usize> Parser<N> {
             self.buf.copy_within(self.start..self.end, 0);
             self.end -= self.start;
             self.start = 0;
+        }
+        if let ([byte], Some(slot)) = (bytes, self.buf.get_mut(self.end)) {
+            // One byte at a time (a UART): no copy call.
+            *slot = *byte;
+            self.end += 1;
+            return;
         }
         match self.buf.get_mut(self.end..self.end + bytes.len()) {
             Some(dst) => {
