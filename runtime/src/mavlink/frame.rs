@@ -3,7 +3,7 @@
 
 use super::error::{EncodeError, FrameError};
 use super::{v1, v2, Dialect, PayloadBuf, UnknownMessageId, MAX_PAYLOAD_LEN};
-use crate::crc::{mcrf4xx, mcrf4xx_digest, mcrf4xx_step};
+use crate::crc::mcrf4xx_with;
 
 /// The sender fields of a frame header: what an encoder needs besides the message.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -223,21 +223,11 @@ pub(crate) const fn is_magic(byte: u8) -> bool {
     byte.wrapping_sub(v2::MAGIC) < 2
 }
 
-/// The frame checksum: CRC-16/MCRF4XX over the header after the magic byte and the payload, then
-/// `crc_extra` as one more byte.
-#[inline]
-pub(crate) fn checksum(head_after_magic: &[u8], payload: &[u8], crc_extra: u8) -> u16 {
-    let mut digest = mcrf4xx_digest();
-    digest.update(head_after_magic);
-    digest.update(payload);
-    mcrf4xx_step(digest.finalize(), crc_extra)
-}
-
 /// The checksum of a whole frame buffer: `body` is the frame from the magic byte to the end of
 /// the payload. One pass over the body, then CRC_EXTRA.
 #[inline]
 pub(crate) fn body_checksum(body: &[u8], crc_extra: u8) -> u16 {
-    mcrf4xx_step(mcrf4xx(body.get(1..).unwrap_or_default()), crc_extra)
+    mcrf4xx_with(body.get(1..).unwrap_or_default(), Some(crc_extra))
 }
 
 /// Reads a little-endian `u16` at `at`, or 0 if `bytes` is too short.
@@ -267,18 +257,18 @@ pub(crate) fn emit<const H: usize>(
     if out.len() < needed {
         return Err(EncodeError::BufferTooSmall { needed });
     }
-    let crc = checksum(head.get(1..).unwrap_or_default(), payload, crc_extra);
-    let Some(frame) = out.get_mut(..total) else {
+    let Some((body, c)) = out
+        .get_mut(..total)
+        .and_then(|frame| frame.split_at_mut_checked(H + payload.len()))
+    else {
         return Err(EncodeError::BufferTooSmall { needed });
     };
-    let Some((h, rest)) = frame.split_first_chunk_mut::<H>() else {
+    let Some((h, p)) = body.split_first_chunk_mut::<H>() else {
         return Err(EncodeError::BufferTooSmall { needed });
     };
     *h = head;
-    let Some((p, c)) = rest.split_at_mut_checked(payload.len()) else {
-        return Err(EncodeError::BufferTooSmall { needed });
-    };
     p.copy_from_slice(payload);
+    let crc = body_checksum(body, crc_extra);
     c.copy_from_slice(&crc.to_le_bytes());
     Ok(total)
 }
