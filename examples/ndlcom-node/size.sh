@@ -14,6 +14,10 @@
 #   FERROLINK_CARGO_LOCK lock file serialising cargo runs (default: /tmp/ferrolink-cargo.lock);
 #                        flock is skipped when it is not installed.
 #   SIZE_SYMBOLS=1       also list the largest symbols of each build (binutils nm).
+#
+# Exit status 3 when the default node at "z" is over the reference C implementation's figures:
+# NDLCom's share of flash (over the `bare` skeleton) must stay under 3.2 kB (3200 B) and its
+# static RAM at or under 1 kB (1024 B).
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -88,3 +92,16 @@ done
 echo
 echo "Bytes; flash = .vector_table + .text + .rodata + .data, static RAM = .data + .bss (stack not counted)."
 echo "The NDLCom share of a build is its flash and RAM minus the \`bare\` row of the same opt-level."
+
+# The budget: the reference C implementation's 3.2 kB of code and 1 kB of static RAM.
+# Field $3 (1-based) of the row of variant $1 at opt-level $2.
+field() { printf '%s\n' "${rows[@]}" | awk -v v="$1" -v o="$2" -v f="$3" '$1 == v && $2 == o { print $f }'; }
+share=$(($(field default z 3) - $(field bare z 3)))
+ram=$(field default z 9)
+echo
+if ((share < 3200 && ram <= 1024)); then
+    echo "budget: NDLCom adds $share B of flash (< 3200) and $ram B of static RAM (<= 1024) at \"z\": ok"
+else
+    echo "budget: NDLCom adds $share B of flash and $ram B of static RAM at \"z\": over the reference C's 3200 B / 1024 B" >&2
+    exit 3
+fi

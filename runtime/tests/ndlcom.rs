@@ -63,7 +63,8 @@ fn decode_chunked(
     chunk: usize,
     max_payload: usize,
 ) -> (Vec<(Header, Vec<u8>)>, Stats) {
-    let mut parser = Parser::new([0u8; storage_len(255)]);
+    // The const constructor a firmware's `static` uses; `caller_storage_works_too` covers `new`.
+    let mut parser = Parser::<[u8; storage_len(255)]>::zeroed();
     parser.set_max_payload(max_payload);
     let mut out = Vec::new();
     for piece in stream.chunks(chunk.max(1)) {
@@ -95,7 +96,7 @@ fn golden_frames_decode_at_every_chunk_size() {
         let (got, stats) = decode_chunked(&all, chunk, 255);
         assert_eq!(got, want, "chunk {chunk}");
         assert_eq!(stats.dropped() + stats.crc_failures, 0);
-        assert_eq!(stats.bytes, all.len() as u64);
+        assert_eq!(stats.bytes, all.len());
     }
 }
 
@@ -192,10 +193,29 @@ fn oversize_frame_is_never_read_as_a_header() {
 }
 
 #[test]
+fn storage_too_small_for_a_frame_drops_it_and_goes_on() {
+    // Five bytes hold a header but not the two FCS bytes of even an empty frame.
+    let mut parser = Parser::new([0u8; 5]);
+    let empty = &golden()[0].2;
+    let mut frames = 0;
+    parser.feed_all(empty, |_| frames += 1);
+    parser.feed_all(empty, |_| frames += 1);
+    assert_eq!(frames, 0);
+    assert_eq!(parser.stats().oversize, 2);
+    assert_eq!(parser.stats().bytes, 2 * empty.len());
+}
+
+#[test]
 fn caller_storage_works_too() {
     let mut storage = [0u8; 32];
     let mut parser = Parser::new(&mut storage[..]);
     assert_eq!(parser.max_payload(), 26);
+    // A limit above what the storage holds is capped by it; a lower one holds.
+    parser.set_max_payload(1000);
+    assert_eq!(parser.max_payload(), 26);
+    parser.set_max_payload(20);
+    assert_eq!(parser.max_payload(), 20);
+    parser.set_max_payload(26);
     let encoded = &golden()[5].2;
     let Feed::Frame { frame, remaining } = parser.feed(encoded) else {
         panic!("no frame")
@@ -232,7 +252,7 @@ proptest! {
         }
         let (got, stats) = decode_chunked(&stream, chunk, 255);
         prop_assert_eq!(got, frames.clone());
-        prop_assert_eq!(stats.frames, frames.len() as u64);
+        prop_assert_eq!(stats.frames, frames.len());
     }
 
     #[test]
@@ -272,6 +292,6 @@ proptest! {
     #[test]
     fn any_input_is_safe(bytes in prop::collection::vec(any::<u8>(), 0..600), chunk in 1usize..64) {
         let (_, stats) = decode_chunked(&bytes, chunk, 100);
-        prop_assert_eq!(stats.bytes, bytes.len() as u64);
+        prop_assert_eq!(stats.bytes, bytes.len());
     }
 }

@@ -7,19 +7,20 @@
 //! needed. On a real board `rx()` would read the data register of whichever UART raised its
 //! RXNE flag and `tx()` would wait for TXE and write the data register.
 //!
-//! Every piece of state is a `static` that starts as zero bytes (`.bss`), so the static RAM
-//! figure is the node's whole state and no flash is spent on an initial image; the stack only
-//! holds call frames. On thumbv7em, in bytes:
+//! Every piece of state is a `static` that starts as zero bytes (`.bss`), built by a `const fn`,
+//! so the static RAM figure is the node's whole state, no flash is spent on an initial image and
+//! no set-up code copies state into place; the stack only holds call frames. On thumbv7em, in
+//! bytes:
 //!
 //! | state | default | `small` |
 //! |---|---:|---:|
 //! | parser storage, one unescaped frame each (4 + payload + 2) | 2 x 261 | 2 x 70 |
-//! | parser bookkeeping (positions, state, six `u64` counters) | 2 x 72 | 2 x 72 |
-//! | routing table (one byte per address) | 256 | 16 |
+//! | parser bookkeeping (position, limit, state, six word-sized counters) | 2 x 34 | 2 x 34 |
+//! | routing table (2 bits per address) | 64 | 4 |
 //! | own and pinned id sets (256 bits each), mirror set | 68 | 68 |
 //! | outgoing counters (one byte per address) | 256 | 16 |
-//! | `Slot` tags, padding | 14 | 12 |
-//! | total | 1260 | 396 |
+//! | padding (parsers are word-aligned) | 2 x 5 | 2 x 4 |
+//! | total | 988 | 304 |
 //!
 //! Features: `small` lowers the compile-time limits (payload 64, 16 addresses), `bare` drops
 //! NDLCom altogether and echoes raw bytes: the skeleton the node is compared against.
@@ -78,31 +79,11 @@ mod node {
     /// Parser storage: one unescaped frame.
     pub const STORAGE: usize = storage_len(MAX_PAYLOAD);
 
-    /// A parser over a static buffer.
-    pub type NodeParser = Parser<&'static mut [u8; STORAGE]>;
-    pub type NodeRouter = Router<IFACES, ADDRS>;
+    /// A parser with its own storage.
+    pub type NodeParser = Parser<[u8; STORAGE]>;
+    /// Two interfaces need 2 bits per route (unknown, 0, 1): four entries to a byte.
+    pub type NodeRouter = Router<IFACES, ADDRS, { ADDRS / 4 }>;
     pub type NodeCounters = TxCounters<ADDRS>;
-
-    /// An `Option` without the niche optimisation: `Empty` is a zero tag, so a `static` that
-    /// starts empty goes to .bss (an empty `Option<Parser>` would be a niche value in the
-    /// parser's state, which puts the whole static into .data and its image into flash).
-    #[derive(Debug)]
-    #[repr(C, u8)]
-    pub enum Slot<T> {
-        Empty,
-        Full(T),
-    }
-
-    impl<T> Slot<T> {
-        /// Stores `value` and returns it.
-        pub fn fill(&mut self, value: T) -> &mut T {
-            *self = Slot::Full(value);
-            match self {
-                Slot::Full(value) => value,
-                Slot::Empty => unreachable!(),
-            }
-        }
-    }
 
     /// Routing and outgoing counters.
     #[derive(Debug)]
@@ -135,18 +116,17 @@ mod node {
 #[entry]
 fn main() -> ! {
     // `#[entry]` turns these into `&'static mut` references (they must come first in the
-    // body). All of them start as zero bytes, so they land in .bss and cost no flash for an
-    // initial image: the parsers (whose empty state is not all zero bytes) and the router are
-    // set up here, at run time, instead of in a `const` initialiser that could go to .data.
-    static mut STORAGE: [[u8; node::STORAGE]; IFACES] = [[0; node::STORAGE]; IFACES];
-    static mut PARSERS: node::Slot<[node::NodeParser; IFACES]> = node::Slot::Empty;
-    static mut ROUTER: node::Slot<node::NodeRouter> = node::Slot::Empty;
+    // body). Every one of them starts as zero bytes, from a `const fn`, so they land in .bss:
+    // no flash for an initial image, and no set-up code that builds them on the stack and
+    // copies them over.
+    static mut PARSERS: [node::NodeParser; IFACES] =
+        [node::NodeParser::zeroed(), node::NodeParser::zeroed()];
+    static mut ROUTER: node::NodeRouter = node::NodeRouter::new();
     static mut COUNTERS: node::NodeCounters = node::NodeCounters::new();
 
-    let [a, b] = STORAGE;
-    let parsers = PARSERS.fill([node::NodeParser::new(a), node::NodeParser::new(b)]);
+    let parsers = PARSERS;
     let mut node = node::Node {
-        router: ROUTER.fill(node::NodeRouter::new()),
+        router: ROUTER,
         counters: COUNTERS,
     };
     node.router.add_own_id(node::OWN_ID);

@@ -321,10 +321,10 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
         };
         let parsed = input.parser.stats();
         IfaceStats {
-            rx_bytes: parsed.bytes,
-            rx_frames: parsed.frames,
-            crc_failures: parsed.crc_failures,
-            dropped: parsed.dropped(),
+            rx_bytes: parsed.bytes as u64,
+            rx_frames: parsed.frames as u64,
+            crc_failures: parsed.crc_failures as u64,
+            dropped: parsed.dropped() as u64,
             timeouts: input.timeouts,
             ..output.stats
         }

@@ -36,28 +36,49 @@ use super::{Header, ESCAPE, FCS_LEN, FLAG, MAX_PAYLOAD_LEN};
 use crate::crc::mcrf4xx;
 
 /// What a [`Parser`] accepted and dropped so far.
+///
+/// The counters are `usize`: 64 bits on a PC, one word on a microcontroller, where they wrap
+/// (after 4 GiB of bytes) instead of overflowing. A reader that keeps totals takes the counters
+/// with [`Parser::take_stats`] and adds them up.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub struct Stats {
     /// Frames handed out.
-    pub frames: u64,
+    pub frames: usize,
     /// Bytes fed.
-    pub bytes: u64,
+    pub bytes: usize,
     /// Frames whose FCS did not check.
-    pub crc_failures: u64,
+    pub crc_failures: usize,
     /// Frames cut short by a flag (or by the end of input, see [`Parser::finish`]).
-    pub truncated: u64,
+    pub truncated: usize,
     /// Frames longer than the configured maximum payload.
-    pub oversize: u64,
+    pub oversize: usize,
     /// Frames dropped for an escape byte followed by something other than 0x5D or 0x5E.
-    pub bad_escape: u64,
+    pub bad_escape: usize,
 }
 
 impl Stats {
+    const ZERO: Stats = Stats {
+        frames: 0,
+        bytes: 0,
+        crc_failures: 0,
+        truncated: 0,
+        oversize: 0,
+        bad_escape: 0,
+    };
+
     /// Frames dropped for any reason but a failed FCS.
     #[inline]
-    pub fn dropped(&self) -> u64 {
-        self.truncated + self.oversize + self.bad_escape
+    pub fn dropped(&self) -> usize {
+        self.truncated
+            .wrapping_add(self.oversize)
+            .wrapping_add(self.bad_escape)
     }
+}
+
+/// Adds `n` to a counter, wrapping.
+#[inline(always)]
+fn bump(counter: &mut usize, n: usize) {
+    *counter = counter.wrapping_add(n);
 }
 
 /// The outcome of [`Parser::feed`].
@@ -119,14 +140,17 @@ impl<'p> Frame<'p> {
     }
 }
 
+/// The parser's state. `Collect` is the zero tag, so a parser whose fields are all zero is a
+/// fresh one (see [`Parser::zeroed`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
 enum State {
     /// Collecting a frame into the storage.
     Collect,
     /// Collecting; the last byte was 0x7D.
     Escaped,
     /// Skipping an oversize frame: this many unescaped bytes are left.
-    Skip { left: usize, escaped: bool },
+    Skip { left: u16, escaped: bool },
     /// Dropping bytes up to the next flag.
     Discard,
 }
@@ -134,51 +158,70 @@ enum State {
 /// The push parser. `S` is its storage: `[u8; N]` for a const size, or `&mut [u8]`.
 ///
 /// The storage holds one unescaped frame, so `storage_len(max_payload)` bytes
-/// ([`storage_len`](super::storage_len)) accept payloads up to `max_payload`.
+/// ([`storage_len`](super::storage_len)) accept payloads up to `max_payload`. Besides the
+/// storage, a parser holds 32 bytes on a 32-bit microcontroller.
 #[derive(Debug, Clone)]
 pub struct Parser<S> {
     buf: S,
     /// Unescaped bytes of the current frame in `buf`.
     len: usize,
-    /// Unescaped bytes the current frame needs in all (4 until the header is in).
-    need: usize,
-    max_payload: usize,
+    /// A maximum payload set below what the storage holds, if any.
+    limit: Option<u8>,
     state: State,
     stats: Stats,
+}
+
+impl<const N: usize> Parser<[u8; N]> {
+    /// A parser over its own zeroed storage, as a `const fn`. Every byte of it is zero, so a
+    /// `static` parser lives in `.bss` and costs no flash for an initial image.
+    pub const fn zeroed() -> Self {
+        Parser {
+            buf: [0; N],
+            len: 0,
+            limit: None,
+            state: State::Collect,
+            stats: Stats::ZERO,
+        }
+    }
 }
 
 impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
     /// A parser accepting the largest payload `storage` can hold (at most 255 bytes).
     pub fn new(storage: S) -> Self {
-        let max_payload = storage
-            .as_ref()
-            .len()
-            .saturating_sub(Header::LEN + FCS_LEN)
-            .min(MAX_PAYLOAD_LEN);
         Parser {
             buf: storage,
             len: 0,
-            need: Header::LEN,
-            max_payload,
+            limit: None,
             state: State::Collect,
-            stats: Stats::default(),
+            stats: Stats::ZERO,
         }
     }
 
     /// Lowers the largest accepted payload (it never exceeds what the storage holds).
     pub fn set_max_payload(&mut self, max: usize) {
-        let cap = self
-            .buf
-            .as_ref()
-            .len()
-            .saturating_sub(Header::LEN + FCS_LEN);
-        self.max_payload = max.min(cap).min(MAX_PAYLOAD_LEN);
+        self.limit = Some(u8::try_from(max).unwrap_or(u8::MAX));
     }
 
     /// The largest accepted payload.
     #[inline]
     pub fn max_payload(&self) -> usize {
-        self.max_payload
+        let cap = self
+            .buf
+            .as_ref()
+            .len()
+            .saturating_sub(Header::LEN + FCS_LEN)
+            .min(MAX_PAYLOAD_LEN);
+        self.limit.map_or(cap, |limit| usize::from(limit).min(cap))
+    }
+
+    /// Unescaped bytes the current frame needs in all: the header, then the header's length
+    /// plus the payload and FCS.
+    #[inline]
+    fn need(&self) -> usize {
+        match self.buf.as_ref().get(3) {
+            Some(&length) if self.len >= Header::LEN => Header::LEN + usize::from(length) + FCS_LEN,
+            _ => Header::LEN,
+        }
     }
 
     /// Counters since creation (or the last [`take_stats`](Self::take_stats)).
@@ -217,7 +260,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
     /// the end of a capture, or after a link's byte-level timeout.
     pub fn finish(&mut self) {
         if self.in_frame() {
-            self.stats.truncated += 1;
+            bump(&mut self.stats.truncated, 1);
         }
         self.restart();
     }
@@ -231,7 +274,6 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
 
     fn restart(&mut self) {
         self.len = 0;
-        self.need = Header::LEN;
         self.state = State::Collect;
     }
 
@@ -242,34 +284,48 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
     pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'p, 'a> {
         while let Some((&b, rest)) = input.split_first() {
             if b == FLAG {
-                self.stats.bytes += 1;
+                bump(&mut self.stats.bytes, 1);
                 self.finish();
                 input = rest;
                 continue;
             }
             match self.state {
                 State::Collect if b != ESCAPE => {
-                    // Copy the run of plain bytes up to what the frame needs next.
-                    let want = self.need - self.len;
-                    let run = input.get(..want.min(input.len())).unwrap_or_default();
-                    let run_len = run.iter().position(|&b| is_special(b)).unwrap_or(run.len());
-                    if let Some(dst) = self.buf.as_mut().get_mut(self.len..self.len + run_len) {
-                        dst.copy_from_slice(run.get(..run_len).unwrap_or_default());
+                    // Copy the run of plain bytes up to what the frame needs next, in one pass
+                    // that stops at a special byte (and so never becomes a `memcpy` call,
+                    // which a microcontroller would pay for in flash).
+                    let want = self.need() - self.len;
+                    let free = self.buf.as_mut().get_mut(self.len..).unwrap_or_default();
+                    let mut taken = 0;
+                    for (slot, &byte) in free.iter_mut().zip(input).take(want) {
+                        if is_special(byte) {
+                            break;
+                        }
+                        *slot = byte;
+                        taken += 1;
                     }
-                    self.stats.bytes += run_len as u64;
-                    self.len += run_len;
-                    input = input.get(run_len..).unwrap_or_default();
-                    if self.len == self.need && self.advance() {
+                    if taken == 0 && free.is_empty() {
+                        // Storage smaller than a header (under `storage_len(0)` bytes): the
+                        // frame cannot be held, so its bytes are dropped up to the next flag.
+                        bump(&mut self.stats.oversize, 1);
+                        self.len = 0;
+                        self.state = State::Discard;
+                        continue;
+                    }
+                    bump(&mut self.stats.bytes, taken);
+                    self.len += taken;
+                    input = input.get(taken..).unwrap_or_default();
+                    if self.complete() {
                         return self.hand_out(input);
                     }
                 }
                 State::Collect => {
-                    self.stats.bytes += 1;
+                    bump(&mut self.stats.bytes, 1);
                     self.state = State::Escaped;
                     input = rest;
                 }
                 State::Escaped => {
-                    self.stats.bytes += 1;
+                    bump(&mut self.stats.bytes, 1);
                     input = rest;
                     if b == 0x5d || b == 0x5e {
                         self.state = State::Collect;
@@ -277,21 +333,21 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
                             *slot = b ^ 0x20;
                         }
                         self.len += 1;
-                        if self.len == self.need && self.advance() {
+                        if self.complete() {
                             return self.hand_out(input);
                         }
                     } else {
-                        self.stats.bad_escape += 1;
+                        bump(&mut self.stats.bad_escape, 1);
                         self.len = 0;
                         self.state = State::Discard;
                     }
                 }
                 State::Skip { left, escaped } => {
-                    self.stats.bytes += 1;
+                    bump(&mut self.stats.bytes, 1);
                     input = rest;
                     let (left, escaped) = match (escaped, b == ESCAPE) {
                         (false, true) => (left, true),
-                        _ => (left - 1, false),
+                        _ => (left.saturating_sub(1), false),
                     };
                     self.state = if left == 0 {
                         State::Collect
@@ -302,7 +358,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
                 State::Discard => {
                     // Up to the next flag, which the top of the loop handles.
                     let skip = input.iter().position(|&b| b == FLAG).unwrap_or(input.len());
-                    self.stats.bytes += skip as u64;
+                    bump(&mut self.stats.bytes, skip);
                     input = input.get(skip..).unwrap_or_default();
                 }
             }
@@ -310,40 +366,40 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
         Feed::Consumed
     }
 
-    /// Called when `len == need`: reads the header or checks a complete frame. Returns true if
-    /// a valid frame is complete.
-    fn advance(&mut self) -> bool {
-        if self.need == Header::LEN {
-            let length = usize::from(self.buf.as_ref().get(3).copied().unwrap_or(0));
-            if length > self.max_payload {
-                self.stats.oversize += 1;
+    /// Called after bytes were added: skips an oversize frame once its header is in, and checks
+    /// a complete frame. Returns true if a valid frame is complete.
+    fn complete(&mut self) -> bool {
+        if self.len == Header::LEN {
+            let length = self.buf.as_ref().get(3).copied().unwrap_or(0);
+            if usize::from(length) > self.max_payload() {
+                bump(&mut self.stats.oversize, 1);
                 self.len = 0;
-                self.need = Header::LEN;
                 self.state = State::Skip {
-                    left: length + FCS_LEN,
+                    left: u16::from(length) + FCS_LEN as u16,
                     escaped: false,
                 };
                 return false;
             }
-            self.need = Header::LEN + length + FCS_LEN;
+        }
+        if self.len < Header::LEN || self.len != self.need() {
             return false;
         }
         let ok = self
             .buf
             .as_ref()
-            .get(..self.need)
+            .get(..self.len)
             .is_some_and(|frame| mcrf4xx(frame) == 0);
         if ok {
-            self.stats.frames += 1;
+            bump(&mut self.stats.frames, 1);
         } else {
-            self.stats.crc_failures += 1;
+            bump(&mut self.stats.crc_failures, 1);
             self.restart();
         }
         ok
     }
 
     fn hand_out<'p, 'a: 'p>(&'p mut self, remaining: &'a [u8]) -> Feed<'p, 'a> {
-        let len = self.need;
+        let len = self.len;
         self.restart();
         let bytes = self.buf.as_ref().get(..len).unwrap_or_default();
         Feed::Frame {

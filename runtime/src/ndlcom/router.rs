@@ -138,33 +138,87 @@ impl AddrSet {
 const UNKNOWN: u8 = 0;
 
 /// The routing state of a node with `N` interfaces (at most 32) and a table of `A` addresses
-/// (256 for all; ids at or above `A` are always flooded).
+/// (256 for all; ids at or above `A` are always flooded), packed into `T` bytes.
+///
+/// An entry holds the interface index plus one (0: unknown) in `8 * T / A` bits. The default,
+/// `T = A`, gives each entry a byte. A node with few interfaces can pack its table tighter:
+/// `Router<2, 256, 64>` keeps two-interface routes in 2 bits each, 64 bytes for all 256
+/// addresses. `T` must be `A`, `A / 2`, `A / 4` or `A / 8`, with entries wide enough for the
+/// values `0..=N`; anything else fails to compile.
+///
+/// ```compile_fail
+/// # use ferrolink_runtime::ndlcom::router::Router;
+/// // 2-bit entries hold 0..=3: too narrow for 4 interfaces.
+/// let r = Router::<4, 256, 64>::new();
+/// ```
 #[derive(Debug, Clone)]
-pub struct Router<const N: usize, const A: usize = 256> {
-    table: [u8; A],
+pub struct Router<const N: usize, const A: usize = 256, const T: usize = A> {
+    table: [u8; T],
     own: AddrSet,
     internal: AddrSet,
     mirrors: Ports,
 }
 
-impl<const N: usize, const A: usize> Default for Router<N, A> {
+impl<const N: usize, const A: usize, const T: usize> Default for Router<N, A, T> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize, const A: usize> Router<N, A> {
-    const CHECK: () = assert!(N <= 32, "a router has at most 32 interfaces");
+impl<const N: usize, const A: usize, const T: usize> Router<N, A, T> {
+    /// Bits per table entry.
+    const BITS: usize = match (8 * T).checked_div(A) {
+        Some(bits) => bits,
+        None => 8,
+    };
 
-    /// Every route unknown, no own ids, no mirrors.
+    const CHECK: () = {
+        assert!(N <= 32, "a router has at most 32 interfaces");
+        assert!(
+            matches!(Self::BITS, 1 | 2 | 4 | 8) && T * 8 == A * Self::BITS,
+            "a router's table packs A entries into T bytes: T is A, A/2, A/4 or A/8"
+        );
+        assert!(
+            N < 1 << Self::BITS,
+            "a router's table entries (8 * T / A bits) are too narrow for N interfaces"
+        );
+    };
+
+    /// Every route unknown, no own ids, no mirrors. All zero bytes: a `static` router lives in
+    /// `.bss`.
     pub const fn new() -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::CHECK;
         Router {
-            table: [UNKNOWN; A],
+            table: [UNKNOWN; T],
             own: AddrSet([0; 8]),
             internal: AddrSet([0; 8]),
             mirrors: Ports::NONE,
+        }
+    }
+
+    /// Where entry `id` lies: its byte, its shift in the byte, and the entry mask.
+    #[inline]
+    fn slot(id: u8) -> Option<(usize, u32, u8)> {
+        let id = usize::from(id);
+        let bit = id * Self::BITS;
+        let mask = ((1u16 << Self::BITS) - 1) as u8;
+        (id < A).then_some((bit / 8, (bit % 8) as u32, mask))
+    }
+
+    /// The raw entry of `id` (interface plus one, or `UNKNOWN`).
+    #[inline]
+    fn entry(&self, id: u8) -> u8 {
+        Self::slot(id)
+            .and_then(|(at, shift, mask)| Some((self.table.get(at)? >> shift) & mask))
+            .unwrap_or(UNKNOWN)
+    }
+
+    fn set_entry(&mut self, id: u8, entry: u8) {
+        if let Some((at, shift, mask)) = Self::slot(id) {
+            if let Some(byte) = self.table.get_mut(at) {
+                *byte = (*byte & !(mask << shift)) | ((entry & mask) << shift);
+            }
         }
     }
 
@@ -208,20 +262,16 @@ impl<const N: usize, const A: usize> Router<N, A> {
     }
 
     fn set(&mut self, id: u8, i: usize) {
-        // N is at most 32, so `i + 1` fits a byte.
+        // N is at most 32, and entries are wide enough for it, so `i + 1` fits.
         if i < N {
-            if let Some(slot) = self.table.get_mut(usize::from(id)) {
-                *slot = (i + 1) as u8;
-            }
+            self.set_entry(id, (i + 1) as u8);
         }
     }
 
     /// Forgets `id`'s route unless it is pinned.
     pub fn forget(&mut self, id: u8) {
         if !self.internal.contains(id) {
-            if let Some(slot) = self.table.get_mut(usize::from(id)) {
-                *slot = UNKNOWN;
-            }
+            self.set_entry(id, UNKNOWN);
         }
     }
 
@@ -232,9 +282,9 @@ impl<const N: usize, const A: usize> Router<N, A> {
 
     /// Forgets every unpinned route through interface `i`, e.g. when its link went down.
     pub fn invalidate(&mut self, i: usize) {
-        for (id, slot) in self.table.iter_mut().enumerate() {
-            if usize::from(*slot) == i.wrapping_add(1) && !self.internal.contains(id as u8) {
-                *slot = UNKNOWN;
+        for id in 0..=u8::MAX {
+            if usize::from(self.entry(id)) == i.wrapping_add(1) && !self.internal.contains(id) {
+                self.set_entry(id, UNKNOWN);
             }
         }
     }
@@ -242,10 +292,10 @@ impl<const N: usize, const A: usize> Router<N, A> {
     /// The interface `id` was learned on, if any.
     #[inline]
     pub fn lookup(&self, id: u8) -> Option<usize> {
-        self.table
-            .get(usize::from(id))
-            .filter(|&&entry| entry != UNKNOWN)
-            .map(|&entry| usize::from(entry) - 1)
+        match self.entry(id) {
+            UNKNOWN => None,
+            entry => Some(usize::from(entry) - 1),
+        }
     }
 
     /// Every known route, as (address, interface).
@@ -335,6 +385,36 @@ mod tests {
         r.invalidate(0);
         assert_eq!(r.lookup(20), Some(2));
         assert_eq!(r.lookup(21), None);
+    }
+
+    #[test]
+    fn packed_tables_route_like_byte_tables() {
+        // One scripted history on a byte table and on every packing narrow enough for 3
+        // interfaces (4 bits, 2 bits) and for 1 (1 bit).
+        fn history<const N: usize, const T: usize>() -> std::vec::Vec<Option<usize>> {
+            let mut r = Router::<N, 256, T>::new();
+            let mut seed = 0x1234_5678u32;
+            for _ in 0..2000 {
+                seed = seed.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+                let [a, b, c, d] = seed.to_le_bytes();
+                let origin = usize::from(c) % N;
+                match d % 16 {
+                    0 => r.invalidate(origin),
+                    1 => r.pin(a, origin),
+                    2 => r.unpin(a),
+                    3 => r.forget(a),
+                    _ => {
+                        r.route(origin, &Header::new(a, b, 0, 0));
+                    }
+                }
+            }
+            (0..=u8::MAX).map(|id| r.lookup(id)).collect()
+        }
+        assert_eq!(history::<3, 256>(), history::<3, 128>());
+        assert_eq!(history::<3, 256>(), history::<3, 64>());
+        assert_eq!(history::<1, 256>(), history::<1, 32>());
+        assert!(history::<3, 64>().iter().filter(|r| r.is_some()).count() > 100);
+        assert_eq!(core::mem::size_of::<Router<2, 256, 64>>(), 64 + 2 * 32 + 4);
     }
 
     #[test]

@@ -60,7 +60,7 @@ pub fn check_parser(data: &[u8]) {
     });
     let chunked = run(stream, max_payload, chunks);
     assert_eq!(whole, chunked);
-    assert_eq!(whole.1.bytes, stream.len() as u64);
+    assert_eq!(whole.1.bytes, stream.len());
     for (header, payload) in &whole.0 {
         let mut buf = [0u8; MAX_FRAME_LEN];
         let n = encode(header, payload, &mut buf).expect("a decoded frame re-encodes");
