@@ -5,7 +5,9 @@
 #
 # Two throwaway crates, each in its own temporary directory with its own target directory:
 #   ferrolink: build.rs runs ferrolink_codegen on common.xml, lib.rs include!s the result
-#              (ferrolink-runtime and ferrolink-codegen from this repository, by path);
+#              (ferrolink-runtime and ferrolink-codegen from this repository, by path; the
+#              generator without default features, as the README advises for a build.rs: no
+#              formatting of what lands in OUT_DIR);
 #   mavlink:   depends on mavlink 0.21, default features off, `dialect-common` + `std`
 #              (one of `std`/`embedded` is required to compile).
 # For each: a full build from scratch (dependencies included), then `cargo clean -p` of the
@@ -101,7 +103,7 @@ publish = false
 ferrolink-runtime = { path = "$repo/runtime", default-features = false, features = ["mavlink"] }
 
 [build-dependencies]
-ferrolink-codegen = { path = "$repo/codegen" }
+ferrolink-codegen = { path = "$repo/codegen", default-features = false }
 EOF
 cat >"$ours/build.rs" <<EOF
 fn main() {

@@ -69,6 +69,9 @@ fi
 # CI never writes snapshots.
 export INSTA_UPDATE=no
 
+echo "== the generator as a build.rs uses it (no default features)"
+cargo test -p ferrolink-codegen --no-default-features --lib --test lean --quiet
+
 echo "== doc tests"
 cargo test --workspace --doc --all-features --quiet
 

@@ -2,7 +2,9 @@
 //! ModRob-1 rules ([`modrob`]), and the name collisions that only a Rust backend can hit. Every
 //! problem is reported; nothing stops at the first.
 
+#[cfg(feature = "toml")]
 pub mod modrob;
+#[cfg(feature = "toml")]
 pub mod tosnet;
 
 use std::collections::{HashMap, HashSet};
@@ -79,8 +81,11 @@ pub fn check(ir: &Ir, diags: &mut Diagnostics) {
         check_item_names(ir, module, diags);
     }
     check_closures(ir, diags);
-    tosnet::check(&ir.rings, diags);
-    modrob::check(&ir.modrob, &ir.robots, diags);
+    #[cfg(feature = "toml")]
+    {
+        tosnet::check(&ir.rings, diags);
+        modrob::check(&ir.modrob, &ir.robots, diags);
+    }
     for e in &ir.enums {
         let mut names: HashMap<&str, &Option<Span>> = HashMap::new();
         let mut values: HashMap<u64, (&str, &Option<Span>)> = HashMap::new();

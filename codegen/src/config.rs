@@ -6,6 +6,7 @@ use proc_macro2::TokenStream;
 use quote::quote;
 
 use crate::backend::rust::{self, SerdeMode};
+#[cfg(feature = "toml")]
 use crate::backend::{modrob, tosnet};
 use crate::diag::Failed;
 use crate::format;
@@ -143,9 +144,13 @@ impl Config {
     fn render(&self, layout: Layout) -> Result<Generated, Failed> {
         let checked = self.run()?;
         let header = format::header(&self.inputs_label());
+        #[allow(unused_mut)]
         let mut modules = rust::emit(&checked.ir, &self.serde);
-        modules.extend(tosnet::emit(&checked.ir));
-        modules.extend(modrob::emit(&checked.ir));
+        #[cfg(feature = "toml")]
+        {
+            modules.extend(tosnet::emit(&checked.ir));
+            modules.extend(modrob::emit(&checked.ir));
+        }
         let files = match layout {
             Layout::Single => {
                 let mods = modules

@@ -87,8 +87,9 @@ impl Span {
 }
 
 /// How bad a diagnostic is.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Severity {
     /// Code is still generated.
     Warning,
@@ -134,6 +135,8 @@ codes! {
     Syntax = "E0002", Error, "fix the syntax at the marked position; nothing else in the file is checked until it parses";
     /// A TOML file whose top-level table names no kind of dictionary the generator reads.
     UnknownKind = "E0003", Error, "a TOML dictionary names its kind in a top-level table: `[ring]` for a TosNet register map, `[module]` for a ModRob-1 module dictionary, `[robot]` for a ModRob-1 robot";
+    /// A TOML dictionary given to a generator built without its `toml` feature.
+    TomlNotBuilt = "E0004", Error, "enable ferrolink-codegen's `toml` feature (on by default), which reads TosNet register maps and ModRob-1 dictionaries";
     /// An element the dialect format does not have.
     UnknownElement = "W0101", Warning, "mavgen ignores it too; check the spelling";
     /// An attribute the element does not have.

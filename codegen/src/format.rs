@@ -1,4 +1,6 @@
-//! Formatting: tokens to source text with `syn` + `prettyplease`, the same bytes everywhere.
+//! Formatting: tokens to source text. With the `format` feature, `syn` + `prettyplease` lay the
+//! code out as rustfmt would, the same bytes everywhere; without it, the tokens are printed as
+//! they are, with a line break after every `;` and `}`, which rustc reads just as well.
 
 use proc_macro2::TokenStream;
 
@@ -9,9 +11,83 @@ pub fn header(inputs: &str) -> String {
 
 /// Formats a whole file. The tokens come from our own backend, so a parse failure is a bug in
 /// the generator, reported as such.
+#[cfg(feature = "format")]
 pub fn render(tokens: TokenStream) -> String {
     match syn::parse2::<syn::File>(tokens) {
         Ok(file) => prettyplease::unparse(&file),
         Err(e) => panic!("ferrolink generated invalid Rust ({e}); please report this as a bug"),
+    }
+}
+
+/// Prints a whole file unformatted.
+#[cfg(not(feature = "format"))]
+pub fn render(tokens: TokenStream) -> String {
+    let mut out = String::new();
+    print(tokens, &mut out);
+    out.push('\n');
+    out
+}
+
+/// Prints `tokens`, a space between two tokens unless a punctuation mark is joined to the next
+/// one (`::`, `->`), a line break after `;` and after a braced group.
+#[cfg(not(feature = "format"))]
+fn print(tokens: TokenStream, out: &mut String) {
+    use proc_macro2::{Delimiter, Spacing, TokenTree};
+    use std::fmt::Write;
+
+    let mut joined = true;
+    for tree in tokens {
+        if !joined && !out.ends_with('\n') {
+            out.push(' ');
+        }
+        joined = false;
+        match tree {
+            TokenTree::Group(group) => {
+                let (open, close) = match group.delimiter() {
+                    Delimiter::Parenthesis => ("(", ")"),
+                    Delimiter::Brace => ("{\n", "}"),
+                    Delimiter::Bracket => ("[", "]"),
+                    Delimiter::None => ("", ""),
+                };
+                out.push_str(open);
+                print(group.stream(), out);
+                out.push_str(close);
+                if group.delimiter() == Delimiter::Brace {
+                    out.push('\n');
+                }
+            }
+            TokenTree::Punct(punct) => {
+                out.push(punct.as_char());
+                joined = punct.spacing() == Spacing::Joint;
+                if punct.as_char() == ';' {
+                    out.push('\n');
+                }
+            }
+            // Identifiers and literals print as written (raw identifiers, suffixes, escapes).
+            other => {
+                let _ = write!(out, "{other}");
+            }
+        }
+    }
+}
+
+#[cfg(all(test, not(feature = "format")))]
+mod tests {
+    use quote::quote;
+
+    #[test]
+    fn unformatted_output_keeps_every_token() {
+        let tokens = quote! {
+            #[doc = "A \"quoted\" doc."]
+            pub mod m {
+                pub fn f(x: &::core::primitive::u8) -> u8 { *x >> 1u8 }
+                pub const C: [u8; 2] = [b'a', 0x7e];
+                pub struct r#S;
+            }
+        };
+        let text = super::render(tokens.clone());
+        let reparsed: proc_macro2::TokenStream = text.parse().unwrap();
+        assert_eq!(reparsed.to_string(), tokens.to_string());
+        assert!(text.lines().count() > 3, "{text}");
     }
 }

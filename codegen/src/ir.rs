@@ -2,16 +2,15 @@
 //! reads.
 //!
 //! Names keep both spellings: `wire` is the dictionary's own (what goes into CRC_EXTRA, JSON and
-//! docs) and `rust` is the identifier the backend emits. The IR serialises with serde so that
-//! `ferrolink ir` can dump it and tests can snapshot it. Source spans are kept for diagnostics but
-//! not serialised.
-
-use serde::Serialize;
+//! docs) and `rust` is the identifier the backend emits. With the `serde` feature the IR
+//! serialises, so that `ferrolink ir` can dump it, the dictionary tools can render it and tests
+//! can snapshot it. Source spans are kept for diagnostics but not serialised.
 
 use crate::diag::Span;
 
 /// A name in both spellings.
-#[derive(Debug, Clone, Serialize, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Name {
     /// As written in the dictionary, e.g. `HEARTBEAT`, `type`.
     pub wire: String,
@@ -21,7 +20,8 @@ pub struct Name {
 
 /// Everything one generator run reads: one module per MAVLink dictionary file, one ring per
 /// TosNet register map.
-#[derive(Debug, Clone, Serialize, Default)]
+#[derive(Debug, Clone, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Ir {
     /// MAVLink modules in dependency order: a module comes after everything it includes.
     pub modules: Vec<Module>,
@@ -36,7 +36,8 @@ pub struct Ir {
 }
 
 /// One dictionary file.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Module {
     /// File stem and Rust module name.
     pub name: Name,
@@ -56,13 +57,14 @@ pub struct Module {
     pub enums: Vec<usize>,
     /// Top-level description (e.g. from a leading comment or `<description>`), if any.
     pub description: String,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// Where the file starts.
     pub span: Option<Span>,
 }
 
 /// A `<deprecated>` or `<superseded>` marker.
-#[derive(Debug, Clone, Serialize, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Deprecation {
     /// `since` attribute.
     pub since: String,
@@ -75,7 +77,8 @@ pub struct Deprecation {
 }
 
 /// A message.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Message {
     /// `HEARTBEAT` / `Heartbeat`.
     pub name: Name,
@@ -101,17 +104,18 @@ pub struct Message {
     pub target_system: Option<usize>,
     /// Offset of `target_component`.
     pub target_component: Option<usize>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `<message>` tag.
     pub span: Option<Span>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `id` attribute value.
     pub id_span: Option<Span>,
 }
 
 /// A scalar wire type.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq, Eq, PartialOrd, Ord, Hash)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Primitive {
     /// `uint8_t`
     U8,
@@ -191,7 +195,8 @@ impl Primitive {
 }
 
 /// A field's type.
-#[derive(Debug, Clone, Copy, Serialize, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct FieldType {
     /// Element type.
     pub primitive: Primitive,
@@ -209,7 +214,8 @@ impl FieldType {
 }
 
 /// A field.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Field {
     /// `type` / `r#type`.
     pub name: Name,
@@ -226,10 +232,10 @@ pub struct Field {
     /// Further attributes: units, display, instance, invalid, multiplier, print_format, default,
     /// minValue, maxValue, increment, in source order.
     pub attrs: Vec<(String, String)>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `<field>` tag.
     pub span: Option<Span>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `enum` attribute value.
     pub enum_span: Option<Span>,
 }
@@ -245,7 +251,8 @@ impl Field {
 }
 
 /// An enum, merged across files.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Enum {
     /// `MAV_TYPE` / `MavType`.
     pub name: Name,
@@ -261,13 +268,14 @@ pub struct Enum {
     pub module: usize,
     /// The unsigned integer type that holds every value and every field that uses it.
     pub repr: Primitive,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The first `<enum>` tag.
     pub span: Option<Span>,
 }
 
 /// An enum entry.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Entry {
     /// `MAV_TYPE_GENERIC` / `Generic` (the enum's prefix stripped).
     pub name: Name,
@@ -283,13 +291,14 @@ pub struct Entry {
     pub wip: bool,
     /// `<param>` elements (for MAV_CMD entries).
     pub params: Vec<Param>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `<entry>` tag.
     pub span: Option<Span>,
 }
 
 /// A command parameter of an enum entry.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Param {
     /// 1..=7.
     pub index: u8,
@@ -300,7 +309,8 @@ pub struct Param {
 }
 
 /// A TosNet register map: one ring, its area layouts and its nodes. One per file.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Ring {
     /// File stem and Rust module name.
     pub name: Name,
@@ -313,7 +323,7 @@ pub struct Ring {
     pub areas: Vec<AreaLayout>,
     /// Nodes in file order.
     pub nodes: Vec<RingNode>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `[ring]` header.
     pub span: Option<Span>,
 }
@@ -335,7 +345,8 @@ impl Ring {
 }
 
 /// The layout of a 16-byte in or out area: one struct in the generated code.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct AreaLayout {
     /// `motor_target` / `MotorTarget`; an inline area is named after its node, register and
     /// direction (`section1_motor1_out`).
@@ -349,13 +360,14 @@ pub struct AreaLayout {
     pub fields: Vec<Field>,
     /// Bytes up to the end of the last field (gaps included).
     pub len: usize,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The area's name or inline table.
     pub span: Option<Span>,
 }
 
 /// A node of a ring.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct RingNode {
     /// 0..=15 (larger values are reported by the checker).
     pub id: u8,
@@ -365,10 +377,10 @@ pub struct RingNode {
     pub description: String,
     /// Registers in file order.
     pub registers: Vec<Register>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The node's table.
     pub span: Option<Span>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `id` value.
     pub id_span: Option<Span>,
 }
@@ -394,7 +406,8 @@ impl RingNode {
 
 /// A register of a node: an in area (master -> node) and an out area (node -> everyone), each
 /// optional.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Register {
     /// 0..=7 (larger values are reported by the checker).
     pub index: u8,
@@ -406,16 +419,17 @@ pub struct Register {
     pub in_area: Option<usize>,
     /// The out area's layout, as an index into [`Ring::areas`].
     pub out_area: Option<usize>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The register's table.
     pub span: Option<Span>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `index` value.
     pub index_span: Option<Span>,
 }
 
 /// A ModRob-1 module dictionary: one module kind and its variables. One per file.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct ModrobModule {
     /// File stem and Rust module name.
     pub name: Name,
@@ -437,10 +451,10 @@ pub struct ModrobModule {
     pub variables: Vec<ModrobVariable>,
     /// CRC-32 of the variable table, for stored images (computed by lowering).
     pub fingerprint: u32,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `[module]` header.
     pub span: Option<Span>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// `info`, if written.
     pub info_span: Option<Span>,
 }
@@ -475,8 +489,9 @@ impl ModrobModule {
 }
 
 /// Whether setting a ModRob-1 variable from outside changes the module's state.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Direction {
     /// Setting it changes the module's state.
     Input,
@@ -485,7 +500,8 @@ pub enum Direction {
 }
 
 /// One variable of a ModRob-1 module, or an array of `count` variables at consecutive VIs.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct ModrobVariable {
     /// `speed_setpoint` / `SpeedSetpoint` (the `Var` variant).
     pub name: Name,
@@ -509,7 +525,7 @@ pub struct ModrobVariable {
     pub rate: f64,
     /// Description text.
     pub description: String,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// Spans of the table and of the values checks point at.
     pub spans: VariableSpans,
 }
@@ -535,7 +551,8 @@ pub struct VariableSpans {
 
 /// A ModRob-1 robot: a composite module with its networks, module instances and the leader's
 /// stored configuration. One per file.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Robot {
     /// File stem and Rust module name.
     pub name: Name,
@@ -555,14 +572,15 @@ pub struct Robot {
     pub rates: Vec<Setting>,
     /// Stored subscriptions, in file order.
     pub subscriptions: Vec<Subscription>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The `[robot]` header.
     pub span: Option<Span>,
 }
 
 /// The transport of a robot's network.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum Transport {
     /// ModRob.CAN-1.
     Can,
@@ -575,7 +593,8 @@ pub enum Transport {
 }
 
 /// A network of a robot.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct RobotNetwork {
     /// Its name.
     pub name: Name,
@@ -583,13 +602,14 @@ pub struct RobotNetwork {
     pub transport: Transport,
     /// Bit rate, bit/s.
     pub bitrate: u32,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// Its table.
     pub span: Option<Span>,
 }
 
 /// A module of a robot.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct RobotInstance {
     /// `drive_fl` / `DRIVE_FL` (its MI constant).
     pub name: Name,
@@ -601,16 +621,17 @@ pub struct RobotInstance {
     pub uuid: Option<[u8; 16]>,
     /// Its network, as an index into [`Robot::networks`].
     pub network: usize,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// Its table.
     pub span: Option<Span>,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// `mi`, if written.
     pub mi_span: Option<Span>,
 }
 
 /// A variable of a robot's instance.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct VarRef {
     /// Index into [`Robot::instances`].
     pub instance: usize,
@@ -619,25 +640,27 @@ pub struct VarRef {
 }
 
 /// A stored value or publication rate.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Setting {
     /// The variable.
     pub target: VarRef,
     /// The value, or the rate in Hz.
     pub value: f64,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The entry.
     pub span: Option<Span>,
 }
 
 /// A stored subscription: `target <- source`.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct Subscription {
     /// The variable that is set.
     pub target: VarRef,
     /// The variable whose publications set it.
     pub source: VarRef,
-    #[serde(skip)]
+    #[cfg_attr(feature = "serde", serde(skip))]
     /// The entry.
     pub span: Option<Span>,
 }

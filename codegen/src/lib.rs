@@ -67,9 +67,13 @@ pub fn load_for(inputs: &[PathBuf], carriers: &[check::Carrier]) -> Result<Check
     let mut diags = diag::Diagnostics::default();
     let loaded = frontend::load(inputs, &mut diags);
     let read = loaded.paths().map(PathBuf::from).collect();
+    #[allow(unused_mut)]
     let mut ir = lower::lower(loaded.mavlink);
-    ir.rings = lower::tosnet::lower(loaded.rings, &mut diags);
-    (ir.modrob, ir.robots) = lower::modrob::lower(loaded.modrob, loaded.robots, &mut diags);
+    #[cfg(feature = "toml")]
+    {
+        ir.rings = lower::tosnet::lower(loaded.rings, &mut diags);
+        (ir.modrob, ir.robots) = lower::modrob::lower(loaded.modrob, loaded.robots, &mut diags);
+    }
     check::check(&ir, &mut diags);
     for &carrier in carriers {
         check::check_carrier(&ir, carrier, &mut diags);

@@ -8,7 +8,9 @@
 //! - TosNet register maps in [`tosnet`]: area names resolved, offsets and lengths;
 //! - ModRob-1 dictionaries and robots in [`modrob`]: fingerprints, names resolved.
 
+#[cfg(feature = "toml")]
 pub mod modrob;
+#[cfg(feature = "toml")]
 pub mod tosnet;
 
 use std::collections::HashMap;

@@ -4,7 +4,8 @@
 //!
 //! | feature   | what it brings |
 //! |-----------|----------------|
-//! | `mavlink` | MAVLink v1/v2 frames, the backtracking stream parser, message signing |
+//! | `mavlink` | MAVLink v1/v2 frames, the backtracking stream parser, the dialect traits |
+//! | `signing` | MAVLink 2 message signing (SHA-256) and the MAVLink router (implies `mavlink`) |
 //! | `ndlcom`  | NDLCom frames, stream parser, packet counters, router and bridge |
 //! | `tosnet`  | TosNet shared-memory block, ring frames and the node engine |
 //! | `modrob`  | ModRob-1 messages on CAN-1, UART.B-1/SPI-1 (encoder, stream parser) and Ethernet-1 packets; module and leader engines |

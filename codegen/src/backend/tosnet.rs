@@ -6,7 +6,7 @@
 //! the node itself has one) or `InWriter` (only the master has one), so the type system keeps
 //! every node to what the protocol lets it write. Every path is absolute.
 
-use proc_macro2::{Literal, Span, TokenStream};
+use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
 use super::rust::{docs, ident, inner, lit, primitive};
@@ -151,11 +151,11 @@ fn emit_area(area: &AreaLayout) -> TokenStream {
     }
 }
 
-fn mask(m: u8) -> syn::LitInt {
-    syn::LitInt::new(
-        &format!("0b{:04b}_{:04b}", m >> 4, m & 0xF),
-        Span::call_site(),
-    )
+/// A register mask as a binary literal, nibbles apart (`0b0000_0011`).
+fn mask(m: u8) -> Literal {
+    format!("0b{:04b}_{:04b}", m >> 4, m & 0xF)
+        .parse()
+        .unwrap_or_else(|_| Literal::u8_unsuffixed(m))
 }
 
 fn emit_node(ring: &Ring, node: &RingNode) -> TokenStream {

@@ -6,12 +6,14 @@
 //! ([`mavlink`]).
 
 pub mod mavlink;
+#[cfg(feature = "toml")]
 pub mod modrob;
+#[cfg(feature = "toml")]
 pub mod toml;
+#[cfg(feature = "toml")]
 pub mod tosnet;
 pub mod xml;
 
-use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use crate::diag::{Code, Diagnostics, SourceFile, Span};
@@ -23,14 +25,18 @@ pub struct Loaded {
     /// MAVLink dialects and their includes.
     pub mavlink: mavlink::Loaded,
     /// TosNet register maps, in input order.
+    #[cfg(feature = "toml")]
     pub rings: Vec<tosnet::ParsedRing>,
     /// ModRob-1 module dictionaries: those given, then those robots name, each once.
+    #[cfg(feature = "toml")]
     pub modrob: Vec<modrob::ParsedModule>,
     /// ModRob-1 robots, in input order.
+    #[cfg(feature = "toml")]
     pub robots: Vec<modrob::ParsedRobot>,
 }
 
 /// One TOML dictionary, by kind.
+#[cfg(feature = "toml")]
 enum TomlFile {
     Ring(tosnet::ParsedRing),
     Module(modrob::ParsedModule),
@@ -40,11 +46,13 @@ enum TomlFile {
 impl Loaded {
     /// Every path read, for `cargo:rerun-if-changed`.
     pub fn paths(&self) -> impl Iterator<Item = &Path> {
-        self.mavlink
-            .paths()
+        let paths = self.mavlink.paths();
+        #[cfg(feature = "toml")]
+        let paths = paths
             .chain(self.rings.iter().map(|r| r.source.path.as_path()))
             .chain(self.modrob.iter().map(|m| Path::new(&m.module.path)))
-            .chain(self.robots.iter().map(|r| r.source.path.as_path()))
+            .chain(self.robots.iter().map(|r| r.source.path.as_path()));
+        paths
     }
 }
 
@@ -55,10 +63,23 @@ pub fn load(inputs: &[PathBuf], diags: &mut Diagnostics) -> Loaded {
     let xml: Vec<PathBuf> = inputs.iter().filter(|p| !is_toml(p)).cloned().collect();
     let mut loaded = Loaded {
         mavlink: mavlink::load(&xml, diags),
-        ..Loaded::default()
+        #[cfg(feature = "toml")]
+        rings: Vec::new(),
+        #[cfg(feature = "toml")]
+        modrob: Vec::new(),
+        #[cfg(feature = "toml")]
+        robots: Vec::new(),
     };
-    let mut seen = HashSet::new();
-    for path in inputs.iter().filter(|p| is_toml(p)) {
+    let toml: Vec<&PathBuf> = inputs.iter().filter(|p| is_toml(p)).collect();
+    load_toml_inputs(&mut loaded, &toml, diags);
+    loaded
+}
+
+/// Reads the TOML dictionaries, and the module dictionaries their robots name.
+#[cfg(feature = "toml")]
+fn load_toml_inputs(loaded: &mut Loaded, inputs: &[&PathBuf], diags: &mut Diagnostics) {
+    let mut seen = std::collections::HashSet::new();
+    for &path in inputs {
         let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
         if !seen.insert(key.clone()) {
             continue;
@@ -108,10 +129,27 @@ pub fn load(inputs: &[PathBuf], diags: &mut Diagnostics) -> Loaded {
             None => {}
         }
     }
-    loaded
+}
+
+/// Without the `toml` feature a TOML dictionary is an error, reported at its first byte.
+#[cfg(not(feature = "toml"))]
+fn load_toml_inputs(_: &mut Loaded, inputs: &[&PathBuf], diags: &mut Diagnostics) {
+    for path in inputs {
+        let file = SourceFile::new(path.as_path(), String::new());
+        diags.report(
+            Code::TomlNotBuilt,
+            Span::new(&file, 0, 0),
+            format!(
+                "{} is a TOML dictionary, and this generator was built without its `toml` feature",
+                path.display()
+            ),
+            "",
+        );
+    }
 }
 
 /// Reads one TOML dictionary and hands it to the reader its top-level table names.
+#[cfg(feature = "toml")]
 fn load_toml(path: &Path, canonical: PathBuf, diags: &mut Diagnostics) -> Option<TomlFile> {
     let text = match std::fs::read_to_string(path) {
         Ok(t) => t,
@@ -170,6 +208,7 @@ pub(crate) enum TypeSyntax {
     /// MAVLink XML: also `uint8_t_mavlink_version` and the legacy `array[N]`.
     Mavlink,
     /// Formats that only take the plain types (TosNet TOML).
+    #[cfg(feature = "toml")]
     Plain,
 }
 
@@ -223,6 +262,7 @@ pub(crate) fn parse_type(
         None => {
             let label = match syntax {
                 TypeSyntax::Mavlink => "not a MAVLink type",
+                #[cfg(feature = "toml")]
                 TypeSyntax::Plain => "not a field type",
             };
             diags.report(

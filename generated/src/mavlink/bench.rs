@@ -6,7 +6,7 @@ pub use super::minimal::*;
 /// A 1-byte payload.
 ///
 /// `BENCH_1`: id 180, CRC_EXTRA 135, payload 1 bytes (1 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -22,6 +22,7 @@ pub struct Bench1 {
     /// A byte.
     pub value: u8,
 }
+::ferrolink_runtime::mav_debug!(Bench1 { value : "value" });
 impl Bench1 {
     /// Message id.
     pub const ID: u32 = 180u32;
@@ -36,6 +37,7 @@ impl Bench1 {
 }
 impl ::core::default::Default for Bench1 {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -62,7 +64,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench1 {
 /// A 9-byte payload.
 ///
 /// `BENCH_9`: id 181, CRC_EXTRA 222, payload 9 bytes (9 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -86,6 +88,7 @@ pub struct Bench9 {
     )]
     pub c: [u8; 3],
 }
+::ferrolink_runtime::mav_debug!(Bench9 { a : "a", b : "b", c : "c" });
 impl Bench9 {
     /// Message id.
     pub const ID: u32 = 181u32;
@@ -100,6 +103,7 @@ impl Bench9 {
 }
 impl ::core::default::Default for Bench9 {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -130,7 +134,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench9 {
 /// A 16-byte payload.
 ///
 /// `BENCH_16`: id 182, CRC_EXTRA 247, payload 16 bytes (16 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -162,6 +166,9 @@ pub struct Bench16 {
     )]
     pub z: [u8; 2],
 }
+::ferrolink_runtime::mav_debug!(
+    Bench16 { time_usec : "time_usec", x : "x", y : "y", z : "z" }
+);
 impl Bench16 {
     /// Message id.
     pub const ID: u32 = 182u32;
@@ -176,6 +183,7 @@ impl Bench16 {
 }
 impl ::core::default::Default for Bench16 {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -208,7 +216,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench16 {
 /// A 40-byte payload.
 ///
 /// `BENCH_40`: id 183, CRC_EXTRA 136, payload 40 bytes (40 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -244,6 +252,9 @@ pub struct Bench40 {
     )]
     pub s: [u16; 2],
 }
+::ferrolink_runtime::mav_debug!(
+    Bench40 { time_usec : "time_usec", q : "q", v : "v", s : "s" }
+);
 impl Bench40 {
     /// Message id.
     pub const ID: u32 = 183u32;
@@ -258,6 +269,7 @@ impl Bench40 {
 }
 impl ::core::default::Default for Bench40 {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -290,7 +302,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench40 {
 /// A 200-byte payload.
 ///
 /// `BENCH_200`: id 184, CRC_EXTRA 58, payload 200 bytes (200 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -320,6 +332,9 @@ pub struct Bench200 {
     )]
     pub flags: [u16; 8],
 }
+::ferrolink_runtime::mav_debug!(
+    Bench200 { time_usec : "time_usec", data : "data", flags : "flags" }
+);
 impl Bench200 {
     /// Message id.
     pub const ID: u32 = 184u32;
@@ -334,6 +349,7 @@ impl Bench200 {
 }
 impl ::core::default::Default for Bench200 {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -364,7 +380,7 @@ impl ::ferrolink_runtime::mavlink::Message for Bench200 {
 /// A 248-byte payload.
 ///
 /// `BENCH_248`: id 185, CRC_EXTRA 150, payload 248 bytes (248 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -402,6 +418,9 @@ pub struct Bench248 {
     )]
     pub raw: [u8; 16],
 }
+::ferrolink_runtime::mav_debug!(
+    Bench248 { time_usec : "time_usec", d : "d", f : "f", label : "label", raw : "raw" }
+);
 impl Bench248 {
     /// Message id.
     pub const ID: u32 = 185u32;
@@ -416,6 +435,7 @@ impl Bench248 {
 }
 impl ::core::default::Default for Bench248 {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -636,72 +656,82 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
     ) -> ::core::result::Result<(), ::ferrolink_runtime::mavlink::UnknownMessageId> {
         match id {
             0u32 => {
-                *out = Self::Heartbeat(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Heartbeat,
+                )
             }
             2u32 => {
-                *out = Self::SystemTime(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::SystemTime,
+                )
             }
             4u32 => {
-                *out = Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload));
+                ::ferrolink_runtime::mavlink::decode_variant(payload, out, Self::Ping)
             }
             30u32 => {
-                *out = Self::Attitude(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Attitude,
+                )
             }
             76u32 => {
-                *out = Self::CommandLong(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::CommandLong,
+                )
             }
             77u32 => {
-                *out = Self::CommandAck(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::CommandAck,
+                )
             }
             110u32 => {
-                *out = Self::FileTransferProtocol(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::FileTransferProtocol,
+                )
             }
             180u32 => {
-                *out = Self::Bench1(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(payload, out, Self::Bench1)
             }
             181u32 => {
-                *out = Self::Bench9(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(payload, out, Self::Bench9)
             }
             182u32 => {
-                *out = Self::Bench16(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(payload, out, Self::Bench16)
             }
             183u32 => {
-                *out = Self::Bench40(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(payload, out, Self::Bench40)
             }
             184u32 => {
-                *out = Self::Bench200(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Bench200,
+                )
             }
             185u32 => {
-                *out = Self::Bench248(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Bench248,
+                )
             }
             253u32 => {
-                *out = Self::Statustext(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Statustext,
+                )
             }
             _ => {
                 return ::core::result::Result::Err(
@@ -792,71 +822,85 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
     }
 }
 impl ::core::convert::From<super::minimal::Heartbeat> for Message {
+    #[inline]
     fn from(m: super::minimal::Heartbeat) -> Self {
         Self::Heartbeat(m)
     }
 }
 impl ::core::convert::From<super::minimal::SystemTime> for Message {
+    #[inline]
     fn from(m: super::minimal::SystemTime) -> Self {
         Self::SystemTime(m)
     }
 }
 impl ::core::convert::From<super::minimal::Ping> for Message {
+    #[inline]
     fn from(m: super::minimal::Ping) -> Self {
         Self::Ping(m)
     }
 }
 impl ::core::convert::From<super::minimal::Attitude> for Message {
+    #[inline]
     fn from(m: super::minimal::Attitude) -> Self {
         Self::Attitude(m)
     }
 }
 impl ::core::convert::From<super::minimal::CommandLong> for Message {
+    #[inline]
     fn from(m: super::minimal::CommandLong) -> Self {
         Self::CommandLong(m)
     }
 }
 impl ::core::convert::From<super::minimal::CommandAck> for Message {
+    #[inline]
     fn from(m: super::minimal::CommandAck) -> Self {
         Self::CommandAck(m)
     }
 }
 impl ::core::convert::From<super::minimal::FileTransferProtocol> for Message {
+    #[inline]
     fn from(m: super::minimal::FileTransferProtocol) -> Self {
         Self::FileTransferProtocol(m)
     }
 }
 impl ::core::convert::From<Bench1> for Message {
+    #[inline]
     fn from(m: Bench1) -> Self {
         Self::Bench1(m)
     }
 }
 impl ::core::convert::From<Bench9> for Message {
+    #[inline]
     fn from(m: Bench9) -> Self {
         Self::Bench9(m)
     }
 }
 impl ::core::convert::From<Bench16> for Message {
+    #[inline]
     fn from(m: Bench16) -> Self {
         Self::Bench16(m)
     }
 }
 impl ::core::convert::From<Bench40> for Message {
+    #[inline]
     fn from(m: Bench40) -> Self {
         Self::Bench40(m)
     }
 }
 impl ::core::convert::From<Bench200> for Message {
+    #[inline]
     fn from(m: Bench200) -> Self {
         Self::Bench200(m)
     }
 }
 impl ::core::convert::From<Bench248> for Message {
+    #[inline]
     fn from(m: Bench248) -> Self {
         Self::Bench248(m)
     }
 }
 impl ::core::convert::From<super::minimal::Statustext> for Message {
+    #[inline]
     fn from(m: super::minimal::Statustext) -> Self {
         Self::Statustext(m)
     }

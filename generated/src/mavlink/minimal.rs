@@ -299,7 +299,7 @@ pub enum MavCmd {
 /// Announces that a node is alive and what it is. Send at about 1 Hz.
 ///
 /// `HEARTBEAT`: id 0, CRC_EXTRA 50, payload 9 bytes (9 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -329,6 +329,11 @@ pub struct Heartbeat {
     /// (always sent as the dialect's version)
     pub mavlink_version: u8,
 }
+::ferrolink_runtime::mav_debug!(
+    Heartbeat { r#type : "type", autopilot : "autopilot", base_mode : "base_mode",
+    custom_mode : "custom_mode", system_status : "system_status", mavlink_version :
+    "mavlink_version" }
+);
 impl Heartbeat {
     /// Message id.
     pub const ID: u32 = 0u32;
@@ -343,6 +348,7 @@ impl Heartbeat {
 }
 impl ::core::default::Default for Heartbeat {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -379,7 +385,7 @@ impl ::ferrolink_runtime::mavlink::Message for Heartbeat {
 /// Wall clock and boot time of the sender.
 ///
 /// `SYSTEM_TIME`: id 2, CRC_EXTRA 137, payload 12 bytes (12 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -401,6 +407,9 @@ pub struct SystemTime {
     /// (units: ms)
     pub time_boot_ms: u32,
 }
+::ferrolink_runtime::mav_debug!(
+    SystemTime { time_unix_usec : "time_unix_usec", time_boot_ms : "time_boot_ms" }
+);
 impl SystemTime {
     /// Message id.
     pub const ID: u32 = 2u32;
@@ -415,6 +424,7 @@ impl SystemTime {
 }
 impl ::core::default::Default for SystemTime {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -443,7 +453,7 @@ impl ::ferrolink_runtime::mavlink::Message for SystemTime {
 /// Measures round-trip time; a target echoes it back.
 ///
 /// `PING`: id 4, CRC_EXTRA 237, payload 14 bytes (14 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -467,6 +477,10 @@ pub struct Ping {
     /// 0 for a request, the requester's component id in the answer.
     pub target_component: u8,
 }
+::ferrolink_runtime::mav_debug!(
+    Ping { time_usec : "time_usec", seq : "seq", target_system : "target_system",
+    target_component : "target_component" }
+);
 impl Ping {
     /// Message id.
     pub const ID: u32 = 4u32;
@@ -481,6 +495,7 @@ impl Ping {
 }
 impl ::core::default::Default for Ping {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -513,7 +528,7 @@ impl ::ferrolink_runtime::mavlink::Message for Ping {
 /// Orientation in the aeronautical frame (right-handed, Z down, X forward).
 ///
 /// `ATTITUDE`: id 30, CRC_EXTRA 39, payload 28 bytes (28 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -579,6 +594,10 @@ pub struct Attitude {
     )]
     pub yawspeed: f32,
 }
+::ferrolink_runtime::mav_debug!(
+    Attitude { time_boot_ms : "time_boot_ms", roll : "roll", pitch : "pitch", yaw :
+    "yaw", rollspeed : "rollspeed", pitchspeed : "pitchspeed", yawspeed : "yawspeed" }
+);
 impl Attitude {
     /// Message id.
     pub const ID: u32 = 30u32;
@@ -593,6 +612,7 @@ impl Attitude {
 }
 impl ::core::default::Default for Attitude {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -631,7 +651,7 @@ impl ::ferrolink_runtime::mavlink::Message for Attitude {
 /// Sends a command with up to seven float parameters.
 ///
 /// `COMMAND_LONG`: id 76, CRC_EXTRA 152, payload 33 bytes (33 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -695,6 +715,12 @@ pub struct CommandLong {
     )]
     pub param7: f32,
 }
+::ferrolink_runtime::mav_debug!(
+    CommandLong { target_system : "target_system", target_component : "target_component",
+    command : "command", confirmation : "confirmation", param1 : "param1", param2 :
+    "param2", param3 : "param3", param4 : "param4", param5 : "param5", param6 : "param6",
+    param7 : "param7" }
+);
 impl CommandLong {
     /// Message id.
     pub const ID: u32 = 76u32;
@@ -709,6 +735,7 @@ impl CommandLong {
 }
 impl ::core::default::Default for CommandLong {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -755,7 +782,7 @@ impl ::ferrolink_runtime::mavlink::Message for CommandLong {
 /// Answers a command.
 ///
 /// `COMMAND_ACK`: id 77, CRC_EXTRA 143, payload 3 bytes (10 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -789,6 +816,11 @@ pub struct CommandAck {
     /// (extension field)
     pub target_component: u8,
 }
+::ferrolink_runtime::mav_debug!(
+    CommandAck { command : "command", result : "result", progress : "progress",
+    result_param2 : "result_param2", target_system : "target_system", target_component :
+    "target_component" }
+);
 impl CommandAck {
     /// Message id.
     pub const ID: u32 = 77u32;
@@ -803,6 +835,7 @@ impl CommandAck {
 }
 impl ::core::default::Default for CommandAck {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -839,7 +872,7 @@ impl ::ferrolink_runtime::mavlink::Message for CommandAck {
 /// Carries one packet of the MAVLink file transfer protocol.
 ///
 /// `FILE_TRANSFER_PROTOCOL`: id 110, CRC_EXTRA 84, payload 254 bytes (254 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -865,6 +898,10 @@ pub struct FileTransferProtocol {
     )]
     pub payload: [u8; 251],
 }
+::ferrolink_runtime::mav_debug!(
+    FileTransferProtocol { target_network : "target_network", target_system :
+    "target_system", target_component : "target_component", payload : "payload" }
+);
 impl FileTransferProtocol {
     /// Message id.
     pub const ID: u32 = 110u32;
@@ -879,6 +916,7 @@ impl FileTransferProtocol {
 }
 impl ::core::default::Default for FileTransferProtocol {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -911,7 +949,7 @@ impl ::ferrolink_runtime::mavlink::Message for FileTransferProtocol {
 /// A human-readable status message.
 ///
 /// `STATUSTEXT`: id 253, CRC_EXTRA 83, payload 51 bytes (54 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -937,6 +975,10 @@ pub struct Statustext {
     /// (extension field)
     pub chunk_seq: u8,
 }
+::ferrolink_runtime::mav_debug!(
+    Statustext { severity : "severity", text : "text", id : "id", chunk_seq : "chunk_seq"
+    }
+);
 impl Statustext {
     /// Message id.
     pub const ID: u32 = 253u32;
@@ -951,6 +993,7 @@ impl Statustext {
 }
 impl ::core::default::Default for Statustext {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -1103,42 +1146,56 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
     ) -> ::core::result::Result<(), ::ferrolink_runtime::mavlink::UnknownMessageId> {
         match id {
             0u32 => {
-                *out = Self::Heartbeat(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Heartbeat,
+                )
             }
             2u32 => {
-                *out = Self::SystemTime(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::SystemTime,
+                )
             }
             4u32 => {
-                *out = Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload));
+                ::ferrolink_runtime::mavlink::decode_variant(payload, out, Self::Ping)
             }
             30u32 => {
-                *out = Self::Attitude(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Attitude,
+                )
             }
             76u32 => {
-                *out = Self::CommandLong(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::CommandLong,
+                )
             }
             77u32 => {
-                *out = Self::CommandAck(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::CommandAck,
+                )
             }
             110u32 => {
-                *out = Self::FileTransferProtocol(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::FileTransferProtocol,
+                )
             }
             253u32 => {
-                *out = Self::Statustext(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Statustext,
+                )
             }
             _ => {
                 return ::core::result::Result::Err(
@@ -1205,41 +1262,49 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
     }
 }
 impl ::core::convert::From<Heartbeat> for Message {
+    #[inline]
     fn from(m: Heartbeat) -> Self {
         Self::Heartbeat(m)
     }
 }
 impl ::core::convert::From<SystemTime> for Message {
+    #[inline]
     fn from(m: SystemTime) -> Self {
         Self::SystemTime(m)
     }
 }
 impl ::core::convert::From<Ping> for Message {
+    #[inline]
     fn from(m: Ping) -> Self {
         Self::Ping(m)
     }
 }
 impl ::core::convert::From<Attitude> for Message {
+    #[inline]
     fn from(m: Attitude) -> Self {
         Self::Attitude(m)
     }
 }
 impl ::core::convert::From<CommandLong> for Message {
+    #[inline]
     fn from(m: CommandLong) -> Self {
         Self::CommandLong(m)
     }
 }
 impl ::core::convert::From<CommandAck> for Message {
+    #[inline]
     fn from(m: CommandAck) -> Self {
         Self::CommandAck(m)
     }
 }
 impl ::core::convert::From<FileTransferProtocol> for Message {
+    #[inline]
     fn from(m: FileTransferProtocol) -> Self {
         Self::FileTransferProtocol(m)
     }
 }
 impl ::core::convert::From<Statustext> for Message {
+    #[inline]
     fn from(m: Statustext) -> Self {
         Self::Statustext(m)
     }

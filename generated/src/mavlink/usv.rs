@@ -6,7 +6,7 @@ pub use super::minimal::*;
 /// Raw rudder position and the calibrated end stops of a USV's steering.
 ///
 /// `RUDDER_RAW`: id 150, CRC_EXTRA 32, payload 5 bytes (5 with extensions).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy, PartialEq)]
 #[cfg_attr(
     feature = "serde",
     derive(
@@ -28,6 +28,10 @@ pub struct RudderRaw {
     /// Sensor reading at the starboard end stop.
     pub starboard_limit: u8,
 }
+::ferrolink_runtime::mav_debug!(
+    RudderRaw { position : "position", port_limit : "port_limit", center_limit :
+    "center_limit", starboard_limit : "starboard_limit" }
+);
 impl RudderRaw {
     /// Message id.
     pub const ID: u32 = 150u32;
@@ -42,6 +46,7 @@ impl RudderRaw {
 }
 impl ::core::default::Default for RudderRaw {
     /// All fields zero, as a zero-length payload decodes.
+    #[inline]
     fn default() -> Self {
         <Self as ::ferrolink_runtime::mavlink::Message>::decode(&[])
     }
@@ -205,47 +210,63 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
     ) -> ::core::result::Result<(), ::ferrolink_runtime::mavlink::UnknownMessageId> {
         match id {
             0u32 => {
-                *out = Self::Heartbeat(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Heartbeat,
+                )
             }
             2u32 => {
-                *out = Self::SystemTime(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::SystemTime,
+                )
             }
             4u32 => {
-                *out = Self::Ping(::ferrolink_runtime::mavlink::Message::decode(payload));
+                ::ferrolink_runtime::mavlink::decode_variant(payload, out, Self::Ping)
             }
             30u32 => {
-                *out = Self::Attitude(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Attitude,
+                )
             }
             76u32 => {
-                *out = Self::CommandLong(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::CommandLong,
+                )
             }
             77u32 => {
-                *out = Self::CommandAck(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::CommandAck,
+                )
             }
             110u32 => {
-                *out = Self::FileTransferProtocol(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::FileTransferProtocol,
+                )
             }
             150u32 => {
-                *out = Self::RudderRaw(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::RudderRaw,
+                )
             }
             253u32 => {
-                *out = Self::Statustext(
-                    ::ferrolink_runtime::mavlink::Message::decode(payload),
-                );
+                ::ferrolink_runtime::mavlink::decode_variant(
+                    payload,
+                    out,
+                    Self::Statustext,
+                )
             }
             _ => {
                 return ::core::result::Result::Err(
@@ -316,46 +337,55 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
     }
 }
 impl ::core::convert::From<super::minimal::Heartbeat> for Message {
+    #[inline]
     fn from(m: super::minimal::Heartbeat) -> Self {
         Self::Heartbeat(m)
     }
 }
 impl ::core::convert::From<super::minimal::SystemTime> for Message {
+    #[inline]
     fn from(m: super::minimal::SystemTime) -> Self {
         Self::SystemTime(m)
     }
 }
 impl ::core::convert::From<super::minimal::Ping> for Message {
+    #[inline]
     fn from(m: super::minimal::Ping) -> Self {
         Self::Ping(m)
     }
 }
 impl ::core::convert::From<super::minimal::Attitude> for Message {
+    #[inline]
     fn from(m: super::minimal::Attitude) -> Self {
         Self::Attitude(m)
     }
 }
 impl ::core::convert::From<super::minimal::CommandLong> for Message {
+    #[inline]
     fn from(m: super::minimal::CommandLong) -> Self {
         Self::CommandLong(m)
     }
 }
 impl ::core::convert::From<super::minimal::CommandAck> for Message {
+    #[inline]
     fn from(m: super::minimal::CommandAck) -> Self {
         Self::CommandAck(m)
     }
 }
 impl ::core::convert::From<super::minimal::FileTransferProtocol> for Message {
+    #[inline]
     fn from(m: super::minimal::FileTransferProtocol) -> Self {
         Self::FileTransferProtocol(m)
     }
 }
 impl ::core::convert::From<RudderRaw> for Message {
+    #[inline]
     fn from(m: RudderRaw) -> Self {
         Self::RudderRaw(m)
     }
 }
 impl ::core::convert::From<super::minimal::Statustext> for Message {
+    #[inline]
     fn from(m: super::minimal::Statustext) -> Self {
         Self::Statustext(m)
     }

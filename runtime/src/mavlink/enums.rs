@@ -1,4 +1,4 @@
-//! The macros generated dialects use to declare enums and flag sets.
+//! The macros generated dialects use to declare enums and flag sets, and messages' `Debug`.
 //!
 //! Both keep values the dialect does not name: an enum gets an `Unknown(raw)` variant and a flag
 //! set keeps unknown bits, so decoding never fails on a value from a newer dialect.
@@ -28,6 +28,7 @@ macro_rules! mav_enum {
         #[allow(deprecated)]
         impl $name {
             /// The variant for `raw`; values without a name become `Unknown(raw)`.
+            #[inline]
             pub const fn from_raw(raw: $raw) -> Self {
                 match raw {
                     $( $value => Self::$variant, )*
@@ -36,6 +37,7 @@ macro_rules! mav_enum {
             }
 
             /// The raw value.
+            #[inline]
             pub const fn raw(self) -> $raw {
                 match self {
                     $( Self::$variant => $value, )*
@@ -45,18 +47,21 @@ macro_rules! mav_enum {
         }
 
         impl ::core::default::Default for $name {
+            #[inline]
             fn default() -> Self {
                 Self::from_raw(0)
             }
         }
 
         impl ::core::convert::From<$raw> for $name {
+            #[inline]
             fn from(raw: $raw) -> Self {
                 Self::from_raw(raw)
             }
         }
 
         impl ::core::convert::From<$name> for $raw {
+            #[inline]
             fn from(value: $name) -> Self {
                 value.raw()
             }
@@ -105,22 +110,27 @@ macro_rules! mav_bitmask {
             pub const NAMED: &'static [(&'static str, Self)] = &[ $( (stringify!($flag), Self::$flag), )* ];
 
             /// The flag set with exactly these bits, named or not.
+            #[inline]
             pub const fn from_raw(raw: $raw) -> Self {
                 Self(raw)
             }
             /// The raw bits.
+            #[inline]
             pub const fn raw(self) -> $raw {
                 self.0
             }
             /// No flags.
+            #[inline]
             pub const fn empty() -> Self {
                 Self(0)
             }
             /// Whether every bit of `other` is set.
+            #[inline]
             pub const fn contains(self, other: Self) -> bool {
                 self.0 & other.0 == other.0
             }
             /// Whether no bit is set.
+            #[inline]
             pub const fn is_empty(self) -> bool {
                 self.0 == 0
             }
@@ -128,41 +138,48 @@ macro_rules! mav_bitmask {
 
         impl ::core::ops::BitOr for $name {
             type Output = Self;
+            #[inline]
             fn bitor(self, rhs: Self) -> Self {
                 Self(self.0 | rhs.0)
             }
         }
         impl ::core::ops::BitOrAssign for $name {
+            #[inline]
             fn bitor_assign(&mut self, rhs: Self) {
                 self.0 |= rhs.0;
             }
         }
         impl ::core::ops::BitAnd for $name {
             type Output = Self;
+            #[inline]
             fn bitand(self, rhs: Self) -> Self {
                 Self(self.0 & rhs.0)
             }
         }
         impl ::core::ops::Not for $name {
             type Output = Self;
+            #[inline]
             fn not(self) -> Self {
                 Self(!self.0)
             }
         }
 
         impl ::core::fmt::Debug for $name {
+            #[inline]
             fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
                 $crate::mavlink::fmt_flags(f, stringify!($name), self.0 as u64, Self::NAMED.iter().map(|(n, v)| (*n, v.0 as u64)))
             }
         }
 
         impl ::core::convert::From<$raw> for $name {
+            #[inline]
             fn from(raw: $raw) -> Self {
                 Self(raw)
             }
         }
 
         impl ::core::convert::From<$name> for $raw {
+            #[inline]
             fn from(value: $name) -> Self {
                 value.0
             }
@@ -180,6 +197,35 @@ macro_rules! mav_bitmask {
         }
 
         $crate::__serde_raw!($name, $raw);
+    };
+}
+
+/// Implements `Debug` for a message struct exactly as `#[derive(Debug)]` would print it, with
+/// the field names given as written (without `r#`), but `#[inline]`: a dialect crate then
+/// compiles no formatting code for its hundreds of messages unless it prints them.
+///
+/// ```
+/// #[derive(Clone, Copy, PartialEq)]
+/// pub struct Ping {
+///     pub seq: u32,
+///     pub r#type: u8,
+/// }
+/// ferrolink_runtime::mav_debug!(Ping { seq: "seq", r#type: "type" });
+///
+/// assert_eq!(format!("{:?}", Ping { seq: 7, r#type: 1 }), "Ping { seq: 7, type: 1 }");
+/// ```
+#[macro_export]
+macro_rules! mav_debug {
+    ($name:ident { $( $field:ident : $label:literal ),* $(,)? }) => {
+        #[allow(deprecated)]
+        impl ::core::fmt::Debug for $name {
+            #[inline]
+            fn fmt(&self, f: &mut ::core::fmt::Formatter<'_>) -> ::core::fmt::Result {
+                f.debug_struct(stringify!($name))
+                    $( .field($label, &self.$field) )*
+                    .finish()
+            }
+        }
     };
 }
 

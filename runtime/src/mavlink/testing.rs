@@ -15,6 +15,7 @@ pub const GOLDEN_V1: &str = "fe0900010100040000000203510403e16d";
 pub const GOLDEN_SIGNED: &str =
     "fd0901000001010000000400000002035104039c56079a7856341200fab266b949d9";
 /// The signing key of [`GOLDEN_SIGNED`].
+#[cfg(feature = "signing")]
 pub const GOLDEN_KEY: [u8; 32] = {
     let mut k = [0u8; 32];
     let mut i = 0;
