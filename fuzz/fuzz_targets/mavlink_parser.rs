@@ -65,10 +65,10 @@ fn check_frames(
     pass_unknown: bool,
 ) -> (Vec<Vec<u8>>, Stats) {
     let mut frames = Vec::new();
-    let mut fed = 0u64;
-    let mut frame_bytes = 0u64;
+    let mut fed = 0usize;
+    let mut frame_bytes = 0usize;
     for chunk in chunks {
-        fed += chunk.len() as u64;
+        fed += chunk.len();
         let mut input = chunk;
         while let Feed::Frame { frame, remaining } = parser.feed(input) {
             assert!(remaining.len() <= input.len());
@@ -88,16 +88,16 @@ fn check_frames(
                 assert!(!f.has_unknown_flags());
                 assert!(v2::Frame::new_checked(bytes).is_ok());
             }
-            frame_bytes += bytes.len() as u64;
+            frame_bytes += bytes.len();
             frames.push(bytes.to_vec());
             input = remaining;
         }
         let s = parser.stats();
         assert_eq!(
-            s.garbage_bytes + s.rejected() + frame_bytes + parser.buffered() as u64,
+            s.garbage_bytes + s.rejected() + frame_bytes + parser.buffered(),
             fed
         );
-        assert_eq!(s.frames, frames.len() as u64);
+        assert_eq!(s.frames, frames.len());
     }
     (frames, *parser.stats())
 }

@@ -36,6 +36,14 @@ pub mod serde_helpers;
 pub mod tosnet;
 pub mod wire;
 
+/// Adds `n` to a drop or frame counter, wrapping: parsers count in `usize`, which on a 32-bit
+/// microcontroller wraps after 4 Gi events rather than overflowing.
+#[inline(always)]
+#[allow(dead_code)]
+pub(crate) fn bump(counter: &mut usize, n: usize) {
+    *counter = counter.wrapping_add(n);
+}
+
 #[doc(hidden)]
 pub mod __private {
     #[cfg(feature = "serde")]

@@ -3,7 +3,7 @@
 //! its checksum, counters add up).
 
 use ferrolink_runtime::mavlink::router::{
-    Drop, Filter, LinkConfig, LinkMask, Router, DEFAULT_ROUTE_TTL_US,
+    Drop, Filter, LinkConfig, LinkMask, NoFilter, Router, DEFAULT_ROUTE_TTL_US,
 };
 use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
 use ferrolink_runtime::mavlink::{v1, v2, Header, MessageMeta};
@@ -505,4 +505,37 @@ proptest! {
         }
         scripts::check_router(&script);
     }
+}
+
+/// A router without filters or source counters (what a small radio bridge builds) routes a
+/// scripted exchange exactly as the full one does, in far less memory.
+#[test]
+fn a_router_without_filters_routes_the_same() {
+    let mut lean: Router<3, 16, 0, 0, NoFilter> = Router::new(META);
+    let mut full: Router<3, 16, 16, 16> = Router::new(META);
+    for _ in 0..3 {
+        lean.open_link(LinkConfig::default()).unwrap();
+        full.open_link(LinkConfig::default()).unwrap();
+    }
+    let traffic = [
+        (0, heartbeat(1, 1)),
+        (1, heartbeat(255, 190)),
+        (1, frame(COMMAND_LONG, 255, 190, 1, (1, 1))),
+        (0, frame(COMMAND_LONG, 1, 1, 1, (255, 0))),
+        (2, frame(COMMAND_LONG, 9, 9, 0, (7, 7))),
+        (2, heartbeat(7, 7)),
+        (1, frame(COMMAND_LONG, 255, 190, 2, (7, 7))),
+    ];
+    for (from, bytes) in &traffic {
+        let mut lean_out = Vec::new();
+        lean.receive(*from, bytes, 0, 0, |r| lean_out.push((r.to, r.dropped)));
+        let mut full_out = Vec::new();
+        full.receive(*from, bytes, 0, 0, |r| full_out.push((r.to, r.dropped)));
+        assert_eq!(lean_out, full_out, "from link {from}");
+        assert_eq!(lean_out.len(), 1);
+    }
+    assert!(
+        core::mem::size_of::<Router<3, 16, 0, 0, NoFilter>>() * 2
+            < core::mem::size_of::<Router<3, 16, 16, 16>>()
+    );
 }

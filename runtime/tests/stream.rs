@@ -34,17 +34,17 @@ fn run<'c>(
     chunks: impl IntoIterator<Item = &'c [u8]>,
 ) -> (Vec<(Vec<u8>, bool)>, Stats) {
     let mut frames = Vec::new();
-    let mut fed = 0u64;
-    let mut frame_bytes = 0u64;
+    let mut fed = 0usize;
+    let mut frame_bytes = 0usize;
     for chunk in chunks {
-        fed += chunk.len() as u64;
+        fed += chunk.len();
         let mut input = chunk;
         loop {
             match parser.feed(input) {
                 Feed::Consumed => break,
                 Feed::Frame { frame, remaining } => {
                     assert!(remaining.len() <= input.len());
-                    frame_bytes += frame.as_bytes().len() as u64;
+                    frame_bytes += frame.as_bytes().len();
                     if let Some(meta) = frame.meta() {
                         assert!(frame.frame().check_crc(meta.crc_extra));
                     }
@@ -55,7 +55,7 @@ fn run<'c>(
         }
         let s = parser.stats();
         assert_eq!(
-            s.garbage_bytes + s.rejected() + frame_bytes + parser.buffered() as u64,
+            s.garbage_bytes + s.rejected() + frame_bytes + parser.buffered(),
             fed,
             "every byte is accounted for"
         );
@@ -101,7 +101,7 @@ fn every_chunk_size_gives_the_same_frames() {
     let (stream, expected) = mixed_stream();
     let (whole, reference) = run_chunked(TestDialect::META, &stream, stream.len());
     assert_eq!(whole, expected);
-    assert_eq!(reference.frames, expected.len() as u64);
+    assert_eq!(reference.frames, expected.len());
     eprintln!("{} bytes, {:?}", stream.len(), reference);
     for chunk in 1..=stream.len() {
         let (frames, stats) = run_chunked(TestDialect::META, &stream, chunk);
@@ -132,13 +132,13 @@ fn random_splits_give_the_same_frames() {
 
 #[derive(Debug, Default)]
 struct Inserted {
-    garbage: u64,
-    false_magic: u64,
-    truncated: u64,
-    bad_crc: u64,
-    unknown_id: u64,
-    bad_flags: u64,
-    signed: u64,
+    garbage: usize,
+    false_magic: usize,
+    truncated: usize,
+    bad_crc: usize,
+    unknown_id: usize,
+    bad_flags: usize,
+    signed: usize,
 }
 
 struct Torture {
@@ -172,7 +172,7 @@ fn torture(seed: u64, wanted: usize) -> Torture {
         match rng.below(10) {
             0..=3 => {
                 let (frame, kind) = intact(&mut rng, &mut signer);
-                t.inserted.signed += u64::from(kind == Kind::Signed);
+                t.inserted.signed += usize::from(kind == Kind::Signed);
                 t.stream.extend_from_slice(&frame);
                 t.expected.push(frame);
             }
@@ -288,13 +288,13 @@ fn torture_stream_recovers_every_intact_frame() {
             stats.bad_crc >= ins.bad_crc + ins.false_magic,
             "{stats:?} {ins:?}"
         );
-        let magic_bytes = t.stream.iter().filter(|&&b| b == 0xFD || b == 0xFE).count() as u64;
+        let magic_bytes = t.stream.iter().filter(|&&b| b == 0xFD || b == 0xFE).count();
         assert!(stats.rejected() <= magic_bytes);
-        assert!(stats.garbage_bytes >= v2::MAX_FRAME_LEN as u64);
-        let frame_bytes: u64 = t.expected.iter().map(|f| f.len() as u64).sum();
+        assert!(stats.garbage_bytes >= v2::MAX_FRAME_LEN);
+        let frame_bytes: usize = t.expected.iter().map(|f| f.len()).sum();
         assert_eq!(
             stats.garbage_bytes + stats.rejected() + frame_bytes,
-            t.stream.len() as u64
+            t.stream.len()
         );
 
         for chunk in [1, 2, 3, 7, 10, 64, 255, 279, 280, 281, 1000, 4096] {

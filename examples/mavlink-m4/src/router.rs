@@ -22,7 +22,7 @@
 use core::hint::black_box;
 
 use cortex_m_rt::entry;
-use ferrolink_runtime::mavlink::router::{LinkConfig, Router};
+use ferrolink_runtime::mavlink::router::{LinkConfig, NoFilter, Router};
 use ferrolink_runtime::mavlink::signing::{SecretKey, Signer};
 use ferrolink_runtime::mavlink::{v2, Dialect};
 use panic_halt as _;
@@ -39,9 +39,9 @@ const RADIO: usize = 1;
 /// The link id in this bridge's signatures.
 const LINK_ID: u8 = 1;
 
-/// Two links, routes for 8 (system, component) pairs, counters for 8 sources, no duplicate
-/// detection (one radio).
-type Bridge = Router<2, 8, 8, 0>;
+/// Two links, routes for 8 (system, component) pairs, no per-source counters, no duplicate
+/// detection (one radio), no filters: what the C bridge does.
+type Bridge = Router<2, 8, 0, 0, NoFilter>;
 
 /// One received byte and the UART it came from (a data register read).
 #[inline(always)]

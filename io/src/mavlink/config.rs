@@ -405,7 +405,7 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                 let list = list::<u32>(get(key), &at, key)?;
                 ids(&list, &at, key)
             };
-            let mut link = LinkConfig {
+            let mut link: LinkConfig = LinkConfig {
                 dedup_window_us: dedup_us,
                 ..LinkConfig::default()
             };

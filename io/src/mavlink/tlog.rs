@@ -171,7 +171,7 @@ pub fn read_tlog(
             }
             Feed::Consumed => None,
         };
-        stats.bad_crc += search.stats().bad_crc;
+        stats.bad_crc += search.stats().bad_crc as u64;
         let Some((start, end)) = found else {
             // Nothing more: the rest is damage, or a record cut off at the end.
             if body.len() < v2::MAX_FRAME_LEN
@@ -220,8 +220,8 @@ pub fn read_raw(
         });
     }
     let p = parser.stats();
-    stats.bad_crc = p.bad_crc;
-    stats.skipped_bytes = p.garbage_bytes + p.rejected();
+    stats.bad_crc = p.bad_crc as u64;
+    stats.skipped_bytes = (p.garbage_bytes + p.rejected()) as u64;
     stats.truncated_bytes = parser.buffered() as u64;
     stats
 }

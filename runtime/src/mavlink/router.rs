@@ -213,13 +213,39 @@ impl Filter {
     }
 }
 
-/// How one link behaves.
+/// What a link lets through, as the router asks it: [`Filter`] (allow and block lists, about
+/// 400 bytes a direction) or [`NoFilter`] (nothing stopped, no bytes), picked by the router's
+/// type, so a small device that filters nothing stores and runs no filter code.
+pub trait LinkFilter: Clone + Default + PartialEq + fmt::Debug {
+    /// Whether a frame with this message id from this source passes.
+    fn passes(&self, msg_id: u32, sysid: u8, compid: u8) -> bool;
+}
+
+impl LinkFilter for Filter {
+    #[inline]
+    fn passes(&self, msg_id: u32, sysid: u8, compid: u8) -> bool {
+        Filter::passes(self, msg_id, sysid, compid)
+    }
+}
+
+/// A filter that lets everything through and takes no space.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct NoFilter;
+
+impl LinkFilter for NoFilter {
+    #[inline(always)]
+    fn passes(&self, _: u32, _: u8, _: u8) -> bool {
+        true
+    }
+}
+
+/// How one link behaves. `F` is the filter type of the router it is opened on.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct LinkConfig {
+pub struct LinkConfig<F = Filter> {
     /// What the link may deliver.
-    pub inbound: Filter,
+    pub inbound: F,
     /// What may be sent on the link.
-    pub outbound: Filter,
+    pub outbound: F,
     /// Links with the same non-zero group are redundant paths to the same place: they share
     /// routes, and a frame from one is never sent to another.
     pub group: u8,
@@ -374,9 +400,9 @@ pub struct Routed<'a> {
 }
 
 #[derive(Debug, Clone, Default)]
-struct Link {
+struct Link<F> {
     open: bool,
-    config: LinkConfig,
+    config: LinkConfig<F>,
     verifier: Option<Verifier<SIGNING_STREAMS>>,
     counters: LinkCounters,
 }
@@ -388,7 +414,8 @@ struct Seen {
     used: bool,
 }
 
-/// The router: `L` links, `R` routes, `S` sources and `D` remembered frames for deduplication.
+/// The router: `L` links, `R` routes, `S` sources and `D` remembered frames for deduplication,
+/// with links filtered by `F` ([`Filter`], or [`NoFilter`] for a device that filters nothing).
 ///
 /// The defaults suit a small radio; the daemon uses larger tables. `L` is at most
 /// [`MAX_LINKS`]; a larger `L` fails to compile:
@@ -398,19 +425,24 @@ struct Seen {
 /// let r: Router<65> = Router::new(&[]);
 /// ```
 #[derive(Debug, Clone)]
-pub struct Router<const L: usize = 4, const R: usize = 32, const S: usize = 32, const D: usize = 64>
-{
+pub struct Router<
+    const L: usize = 4,
+    const R: usize = 32,
+    const S: usize = 32,
+    const D: usize = 64,
+    F = Filter,
+> {
     parsers: [Parser; L],
     /// Parser counters already added to the link counters.
     parsed: [ParserStats; L],
-    state: State<L, R, S, D>,
+    state: State<L, R, S, D, F>,
 }
 
 /// Everything but the parsers, so a frame borrowed from a parser can be routed in place.
 #[derive(Debug, Clone)]
-struct State<const L: usize, const R: usize, const S: usize, const D: usize> {
+struct State<const L: usize, const R: usize, const S: usize, const D: usize, F> {
     table: &'static [MessageMeta],
-    links: [Link; L],
+    links: [Link<F>; L],
     routes: [Option<Route>; R],
     sources: [Option<SourceCounters>; S],
     seen: [Seen; D],
@@ -426,7 +458,9 @@ const EXPIRE_EVERY_US: u64 = 100_000;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
-impl<const L: usize, const R: usize, const S: usize, const D: usize> Router<L, R, S, D> {
+impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilter>
+    Router<L, R, S, D, F>
+{
     const LINKS_FIT_THE_MASK: () = assert!(L <= MAX_LINKS, "Router<L> needs L <= 64");
 
     /// A router checking frames against `table` (sorted by id, as a dialect's `META` is), with
@@ -463,7 +497,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> Router<L, R
 
     /// Opens a link in the first free slot and returns its index, or `None` when all `L` are in
     /// use. Its counters start at zero.
-    pub fn open_link(&mut self, config: LinkConfig) -> Option<usize> {
+    pub fn open_link(&mut self, config: LinkConfig<F>) -> Option<usize> {
         let index = self.state.links.iter().position(|l| !l.open)?;
         let parser = self.parsers.get_mut(index)?;
         *parser = Parser::new(self.state.table).pass_unknown_ids(!config.drop_unknown_ids);
@@ -500,7 +534,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> Router<L, R
     }
 
     /// The configuration of link `index`.
-    pub fn link_config(&self, index: usize) -> Option<&LinkConfig> {
+    pub fn link_config(&self, index: usize) -> Option<&LinkConfig<F>> {
         self.state.links.get(index).map(|l| &l.config)
     }
 
@@ -574,14 +608,17 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> Router<L, R
         };
         let now = *parser.stats();
         let c = &mut link.counters;
-        c.crc_failures += now.bad_crc - parsed.bad_crc;
-        c.garbage_bytes +=
-            (now.garbage_bytes + now.rejected()) - (parsed.garbage_bytes + parsed.rejected());
+        // The parser's counters are words that wrap; the differences are what was new.
+        let dropped = |s: &ParserStats| s.garbage_bytes.wrapping_add(s.rejected());
+        c.crc_failures += now.bad_crc.wrapping_sub(parsed.bad_crc) as u64;
+        c.garbage_bytes += dropped(&now).wrapping_sub(dropped(parsed)) as u64;
         *parsed = now;
     }
 }
 
-impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R, S, D> {
+impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilter>
+    State<L, R, S, D, F>
+{
     fn expire(&mut self, now_us: u64) {
         if self.route_ttl_us == 0 {
             return;
@@ -617,11 +654,15 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R,
         if let Err(why) = link.check_signature(frame, rx_us) {
             return self.drop_frame(from, why);
         }
-        let (dedup_window, inbound) = (link.config.dedup_window_us, link.config.inbound);
+        let dedup_window = link.config.dedup_window_us;
+        let passes_in = link
+            .config
+            .inbound
+            .passes(frame.msg_id(), header.sysid, header.compid);
         if dedup_window > 0 && self.is_duplicate(bytes, rx_us, dedup_window) {
             return self.drop_frame(from, Drop::Duplicate);
         }
-        if !inbound.passes(frame.msg_id(), header.sysid, header.compid) {
+        if !passes_in {
             return self.drop_frame(from, Drop::FilteredIn);
         }
 
@@ -802,7 +843,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize> State<L, R,
     }
 }
 
-impl Link {
+impl<F> Link<F> {
     /// The signing checks of a link that requires signing.
     fn check_signature(&mut self, frame: &ParsedFrame<'_>, rx_us: u64) -> Result<(), Drop> {
         let Some(verifier) = &mut self.verifier else {

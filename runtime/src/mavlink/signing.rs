@@ -51,12 +51,26 @@ pub const SIGNATURE_LEN: usize = 6;
 /// Converts microseconds since the Unix epoch to a signing timestamp (0 before 2015).
 #[inline]
 pub const fn timestamp_from_unix_micros(unix_us: u64) -> u64 {
-    let t = unix_us.saturating_sub(EPOCH_UNIX_SECONDS * 1_000_000) / 10;
+    let t = div10(unix_us.saturating_sub(EPOCH_UNIX_SECONDS * 1_000_000));
     if t > MAX_TIMESTAMP {
         MAX_TIMESTAMP
     } else {
         t
     }
+}
+
+/// `x / 10` with shifts and one multiplication. On a 32-bit microcontroller a `u64` division is
+/// a call into compiler_builtins (about 0.9 kB of flash on a Cortex-M), even by a constant.
+/// Shift-and-add makes `q` within 1 of `x / 10` from below; the remainder corrects it.
+const fn div10(x: u64) -> u64 {
+    let mut q = (x >> 1) + (x >> 2);
+    q += q >> 4;
+    q += q >> 8;
+    q += q >> 16;
+    q += q >> 32;
+    q >>= 3;
+    let r = x - q * 10;
+    q + (r > 9) as u64
 }
 
 /// A 32-byte signing key. Its `Debug` output does not show the key.
@@ -459,6 +473,33 @@ mod tests {
 
     fn key() -> SecretKey {
         SecretKey::new(GOLDEN_KEY)
+    }
+
+    #[test]
+    fn div10_is_division_by_ten() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        let edges = (0..2000u64).chain((0..64).flat_map(|b| {
+            let p = 1u64 << b;
+            [
+                p - 1,
+                p,
+                p + 1,
+                p.wrapping_mul(10),
+                p.wrapping_mul(10).wrapping_sub(1),
+            ]
+        }));
+        for v in edges.chain([u64::MAX, u64::MAX - 1, u64::MAX - 9, u64::MAX / 10 * 10]) {
+            assert_eq!(div10(v), v / 10, "{v}");
+        }
+        for _ in 0..1_000_000 {
+            // xorshift64*
+            x ^= x >> 12;
+            x ^= x << 25;
+            x ^= x >> 27;
+            let v = x.wrapping_mul(0x2545_F491_4F6C_DD1D);
+            assert_eq!(div10(v), v / 10, "{v}");
+            assert_eq!(div10(v >> 13), (v >> 13) / 10);
+        }
     }
 
     #[test]

@@ -33,6 +33,7 @@
 
 use super::encode::is_special;
 use super::{Header, ESCAPE, FCS_LEN, FLAG, MAX_PAYLOAD_LEN};
+use crate::bump;
 use crate::crc::mcrf4xx;
 
 /// What a [`Parser`] accepted and dropped so far.
@@ -73,12 +74,6 @@ impl Stats {
             .wrapping_add(self.oversize)
             .wrapping_add(self.bad_escape)
     }
-}
-
-/// Adds `n` to a counter, wrapping.
-#[inline(always)]
-fn bump(counter: &mut usize, n: usize) {
-    *counter = counter.wrapping_add(n);
 }
 
 /// The outcome of [`Parser::feed`].
