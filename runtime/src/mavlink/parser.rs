@@ -334,11 +334,9 @@ impl<const N: usize> Parser<N> {
         }
 
         // One more byte for a buffered candidate that stays short of what it needs (a UART fed
-        // byte by byte): store it, nothing to judge yet.
+        // byte by byte): append it, nothing to judge yet.
         if let ([byte], true) = (input, self.end - self.start + 1 < self.need) {
-            if let Some(slot) = self.buf.get_mut(self.end) {
-                *slot = *byte;
-                self.end += 1;
+            if self.push(*byte) {
                 return Feed::Consumed;
             }
         }
@@ -491,11 +489,10 @@ impl<const N: usize> Parser<N> {
             self.end -= self.start;
             self.start = 0;
         }
-        if let ([byte], Some(slot)) = (bytes, self.buf.get_mut(self.end)) {
-            // One byte at a time (a UART): no copy call.
-            *slot = *byte;
-            self.end += 1;
-            return;
+        if let [byte] = bytes {
+            if self.push(*byte) {
+                return;
+            }
         }
         match self.buf.get_mut(self.end..self.end + bytes.len()) {
             Some(dst) => {
@@ -505,6 +502,20 @@ impl<const N: usize> Parser<N> {
             // Cannot happen (a candidate never needs more than a frame and N holds one); if it
             // did, drop the bytes rather than panic.
             None => bump(&mut self.stats.garbage_bytes, bytes.len()),
+        }
+    }
+
+    /// Stores one byte behind the buffered bytes, if the buffer has room: one byte at a time (a
+    /// UART), without a copy call.
+    #[inline(always)]
+    fn push(&mut self, byte: u8) -> bool {
+        match self.buf.get_mut(self.end) {
+            Some(slot) => {
+                *slot = byte;
+                self.end += 1;
+                true
+            }
+            None => false,
         }
     }
 
