@@ -67,7 +67,7 @@ fn c_library(xml: &Path, out: &Path) -> Result<(), String> {
 /// `uint8_t_mavlink_version` fields the defining file's version (which we always send). The
 /// benchmarks fill the rest of every payload with random bytes.
 fn facts(xml: &Path) -> String {
-    let ir = ferrolink_codegen::load(&[xml.to_path_buf()])
+    let ir = ferrolink_dictionary::load(&[xml.to_path_buf()])
         .unwrap_or_else(|e| panic!("{e}"))
         .ir;
     let mut rows = String::new();

@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use ferrolink_codegen::diff::{self, Category};
+use ferrolink_tools::diff::{self, Category};
 use mavlink::Message as _;
 
 type Common = mavlink::dialects::common::MavMessage;
@@ -73,14 +73,14 @@ fn pymavlink_common_against_the_mavlink_crates_common() {
     };
     let new_path = mavlink_crate_common();
     let load = |p: &PathBuf| {
-        ferrolink_codegen::load(std::slice::from_ref(p))
+        ferrolink_dictionary::load(std::slice::from_ref(p))
             .unwrap_or_else(|e| panic!("{e}"))
             .ir
     };
     let (old, new) = (load(&old_path), load(&new_path));
     let findings = diff::diff(&old, &new);
 
-    let messages = |ir: &ferrolink_codegen::ir::Ir| -> Crcs {
+    let messages = |ir: &ferrolink_dictionary::ir::Ir| -> Crcs {
         ir.modules
             .iter()
             .flat_map(|m| &m.messages)

@@ -6,9 +6,9 @@
 
 use std::path::PathBuf;
 
-use ferrolink_codegen::ir::Ir;
-use ferrolink_codegen::traffic::{message_table, PayloadDecoder};
+use ferrolink_dictionary::ir::Ir;
 use ferrolink_runtime::mavlink::MessageMeta;
+use ferrolink_traffic::{message_table, PayloadDecoder};
 
 /// Our own MAVLink definitions (`definitions/mavlink/`), as built into the binary.
 const OWN: &[(&str, &str)] = &[
@@ -39,7 +39,7 @@ impl Dialects {
         if files.is_empty() {
             return Self::own();
         }
-        let checked = ferrolink_codegen::load(files).map_err(|failed| failed.to_string())?;
+        let checked = ferrolink_dictionary::load(files).map_err(|failed| failed.to_string())?;
         for w in &checked.warnings {
             eprintln!("{w}\n");
         }
@@ -59,7 +59,7 @@ impl Dialects {
             std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
             files.push(path);
         }
-        let checked = ferrolink_codegen::load(&files).map_err(|failed| failed.to_string())?;
+        let checked = ferrolink_dictionary::load(&files).map_err(|failed| failed.to_string())?;
         let table = message_table(&checked.ir);
         Ok(Self {
             ir: checked.ir,

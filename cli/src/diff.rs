@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 use clap::{Args, ValueEnum};
-use ferrolink_codegen::diff::{self, Category, Format};
+use ferrolink_tools::diff::{self, Category, Format};
 
 /// `ferrolink diff`'s arguments.
 #[derive(Args)]
@@ -100,7 +100,7 @@ pub fn run(args: DiffArgs) -> Result<ExitCode, Box<dyn std::error::Error>> {
 }
 
 /// Loads one side, printing every problem; `None` if it cannot be read or is invalid.
-fn load(path: &Path) -> Option<ferrolink_codegen::ir::Ir> {
+fn load(path: &Path) -> Option<ferrolink_dictionary::ir::Ir> {
     let inputs = match dictionary_files(path) {
         Ok(inputs) if !inputs.is_empty() => inputs,
         Ok(_) => {
@@ -115,7 +115,7 @@ fn load(path: &Path) -> Option<ferrolink_codegen::ir::Ir> {
             return None;
         }
     };
-    match ferrolink_codegen::load(&inputs) {
+    match ferrolink_dictionary::load(&inputs) {
         Ok(checked) => Some(checked.ir),
         Err(failed) => {
             eprintln!("{failed}");

@@ -28,8 +28,10 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Generate Rust bindings: `mod.rs` plus one module per dictionary file.
+    #[cfg(feature = "generate")]
     Generate {
-        /// Dictionary files: MAVLink XML (their includes are read too) or TosNet TOML.
+        /// Dictionary files: MAVLink XML (their includes are read too), TosNet register maps and
+        /// ModRob-1 module dictionaries and robots (TOML).
         #[arg(required = true)]
         inputs: Vec<PathBuf>,
         /// Output directory.
@@ -46,7 +48,7 @@ enum Command {
         serde_always: bool,
         /// Also check that every message fits this carrier (`ndlcom`: ids below 256).
         #[arg(long, value_name = "CARRIER")]
-        carrier: Vec<ferrolink_codegen::Carrier>,
+        carrier: Vec<ferrolink_dictionary::Carrier>,
     },
     /// Report every problem in the dictionaries; exit 1 on errors.
     Check {
@@ -55,7 +57,7 @@ enum Command {
         inputs: Vec<PathBuf>,
         /// Also check that every message fits this carrier (`ndlcom`: ids below 256).
         #[arg(long, value_name = "CARRIER")]
-        carrier: Vec<ferrolink_codegen::Carrier>,
+        carrier: Vec<ferrolink_dictionary::Carrier>,
     },
     /// MAVLink: route between endpoints, dump telemetry logs.
     #[command(subcommand)]
@@ -142,7 +144,7 @@ fn encode_lines(
     })
 }
 
-fn print_warnings(warnings: &[ferrolink_codegen::Diagnostic]) {
+fn print_warnings(warnings: &[ferrolink_dictionary::Diagnostic]) {
     for w in warnings {
         eprintln!("{w}\n");
     }
@@ -150,6 +152,7 @@ fn print_warnings(warnings: &[ferrolink_codegen::Diagnostic]) {
 
 fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
     match command {
+        #[cfg(feature = "generate")]
         Command::Generate {
             inputs,
             out,
@@ -173,7 +176,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             let generated = config.generate_modules()?;
             print_warnings(&generated.warnings);
             if check {
-                let stale = ferrolink_codegen::write::stale(&out, &generated.files);
+                let stale = ferrolink_dictionary::write::stale(&out, &generated.files);
                 if stale.is_empty() {
                     eprintln!("{} is up to date", out.display());
                     return Ok(ExitCode::SUCCESS);
@@ -181,7 +184,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 eprintln!("stale in {}: {}", out.display(), stale.join(", "));
                 return Ok(ExitCode::FAILURE);
             }
-            let written = ferrolink_codegen::write::write_all(&out, &generated.files)?;
+            let written = ferrolink_dictionary::write::write_all(&out, &generated.files)?;
             eprintln!(
                 "{} file(s) in {}, {} changed",
                 generated.files.len(),
@@ -191,7 +194,7 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Check { inputs, carrier } => {
-            match ferrolink_codegen::load_for(&inputs, &carrier) {
+            match ferrolink_dictionary::load_for(&inputs, &carrier) {
                 Ok(checked) => {
                     print_warnings(&checked.warnings);
                     let ir = &checked.ir;
@@ -238,11 +241,11 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Modrob(command) => modrob::run(command),
         Command::Tosnet(command) => tosnet::run(command),
         Command::Docs { inputs, out } => {
-            let checked = ferrolink_codegen::load(&inputs)?;
+            let checked = ferrolink_dictionary::load(&inputs)?;
             print_warnings(&checked.warnings);
-            let files = ferrolink_codegen::backend::docs::generate(&checked.ir)?;
+            let files = ferrolink_tools::docs::generate(&checked.ir)?;
             std::fs::create_dir_all(&out)?;
-            let written = ferrolink_codegen::write::write_all(&out, &files)?;
+            let written = ferrolink_dictionary::write::write_all(&out, &files)?;
             eprintln!(
                 "{} file(s) in {}, {} changed; open {}",
                 files.len(),
@@ -253,16 +256,16 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Wireshark { inputs, out } => {
-            let checked = ferrolink_codegen::load(&inputs)?;
+            let checked = ferrolink_dictionary::load(&inputs)?;
             print_warnings(&checked.warnings);
-            let lua = ferrolink_codegen::backend::wireshark::generate(&checked.ir)?;
-            ferrolink_codegen::write::write_if_changed(&out, &lua)?;
+            let lua = ferrolink_tools::wireshark::generate(&checked.ir)?;
+            ferrolink_dictionary::write::write_if_changed(&out, &lua)?;
             eprintln!("wrote {}", out.display());
             Ok(ExitCode::SUCCESS)
         }
         Command::Diff(args) => diff::run(args),
         Command::Ir { inputs } => {
-            let checked = ferrolink_codegen::load(&inputs)?;
+            let checked = ferrolink_dictionary::load(&inputs)?;
             print_warnings(&checked.warnings);
             println!("{}", serde_json::to_string_pretty(&checked.ir)?);
             Ok(ExitCode::SUCCESS)

@@ -12,7 +12,7 @@ use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::{self, EndpointConfig, FileConfig};
 use ferrolink_io::mavlink::{router, tlog};
 
-use ferrolink_codegen::traffic::{CsvExport, RowMeta};
+use ferrolink_traffic::{CsvExport, RowMeta};
 
 use crate::dialect::Dialects;
 
@@ -111,10 +111,8 @@ fn zenoh_endpoints(
         return Ok(Vec::new());
     }
     // The endpoint's threads live as long as the process; so do the dictionaries.
-    let ir: &'static ferrolink_codegen::ir::Ir = Box::leak(Box::new(dialects.ir));
-    let decoder = Box::leak(Box::new(ferrolink_codegen::traffic::PayloadDecoder::new(
-        ir,
-    )));
+    let ir: &'static ferrolink_dictionary::ir::Ir = Box::leak(Box::new(dialects.ir));
+    let decoder = Box::leak(Box::new(ferrolink_traffic::PayloadDecoder::new(ir)));
     let dictionaries = mavlink::Dictionaries {
         table: dialects.table,
         decoder,
@@ -278,7 +276,7 @@ fn read_config(path: &Path) -> Result<FileConfig, String> {
 /// `ferrolink mavlink encode`: JSON lines in, unsigned MAVLink 2 frames in hex out, sent as
 /// system 255, component 190, the line number as the sequence, unless the envelope says otherwise.
 fn encode(dialect: &[PathBuf]) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    use ferrolink_codegen::traffic::FrameDefaults;
+    use ferrolink_traffic::FrameDefaults;
     let dialects = Dialects::load(dialect)?;
     let decoder = dialects.decoder();
     crate::encode_lines(|n, line| {

@@ -167,10 +167,8 @@ fn zenoh_interfaces(
         return Ok(Vec::new());
     }
     // The interface's threads live as long as the process; so do the dictionaries.
-    let ir: &'static ferrolink_codegen::ir::Ir = Box::leak(Box::new(dialects.ir));
-    let decoder = Box::leak(Box::new(ferrolink_codegen::traffic::PayloadDecoder::new(
-        ir,
-    )));
+    let ir: &'static ferrolink_dictionary::ir::Ir = Box::leak(Box::new(dialects.ir));
+    let decoder = Box::leak(Box::new(ferrolink_traffic::PayloadDecoder::new(ir)));
     uris.iter()
         .map(|uri| {
             let uri: ferrolink_zenoh::ZenohUri = uri.parse().map_err(|e| format!("{e}"))?;
@@ -356,15 +354,16 @@ fn export(
     dicts: &[PathBuf],
     dir: &std::path::Path,
 ) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    use ferrolink_codegen::traffic::{CsvExport, PayloadDecoder, RowMeta};
+    use ferrolink_traffic::{CsvExport, PayloadDecoder, RowMeta};
 
-    let checked = match ferrolink_codegen::load_for(dicts, &[ferrolink_codegen::Carrier::Ndlcom]) {
-        Ok(checked) => checked,
-        Err(failed) => {
-            eprintln!("{failed}");
-            return Ok(ExitCode::FAILURE);
-        }
-    };
+    let checked =
+        match ferrolink_dictionary::load_for(dicts, &[ferrolink_dictionary::Carrier::Ndlcom]) {
+            Ok(checked) => checked,
+            Err(failed) => {
+                eprintln!("{failed}");
+                return Ok(ExitCode::FAILURE);
+            }
+        };
     let decoder = PayloadDecoder::new(&checked.ir);
     let mut export = CsvExport::new(dir)?;
     let file = io::BufReader::new(std::fs::File::open(log)?);

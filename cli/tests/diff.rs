@@ -17,7 +17,7 @@ fn diff(args: &[&str], cwd: &Path) -> Output {
 
 fn fixture(name: &str) -> String {
     common::workspace()
-        .join("codegen/tests/diff")
+        .join("tools/tests/diff")
         .join(name)
         .display()
         .to_string()

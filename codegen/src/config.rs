@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 use proc_macro2::TokenStream;
 use quote::quote;
 
-use crate::backend::rust::{self, SerdeMode};
+use crate::backend::ident;
+use crate::backend::mavlink::{self, SerdeMode};
 #[cfg(feature = "toml")]
 use crate::backend::{modrob, tosnet};
 use crate::diag::Failed;
@@ -145,7 +146,7 @@ impl Config {
         let checked = self.run()?;
         let header = format::header(&self.inputs_label());
         #[allow(unused_mut)]
-        let mut modules = rust::emit(&checked.ir, &self.serde);
+        let mut modules = mavlink::emit(&checked.ir, &self.serde);
         #[cfg(feature = "toml")]
         {
             modules.extend(tosnet::emit(&checked.ir));
@@ -167,7 +168,7 @@ impl Config {
             }
             Layout::Modules => {
                 let decls = modules.iter().map(|(name, _)| {
-                    let id = rust::ident(name);
+                    let id = ident(name);
                     quote!(pub mod #id;)
                 });
                 let mut files = vec![GeneratedFile {
@@ -247,7 +248,7 @@ fn io_failure(dir: &Path, e: std::io::Error) -> Failed {
 fn module(name: &str, tokens: &TokenStream, inline: bool) -> TokenStream {
     let attrs = quote!();
     if inline {
-        let id = rust::ident(name);
+        let id = ident(name);
         quote!(pub mod #id { #attrs #tokens })
     } else {
         quote!(#attrs #tokens)

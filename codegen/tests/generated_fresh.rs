@@ -28,12 +28,12 @@ fn check(config: &mut Config, inputs: &[PathBuf], out: &str) -> Vec<String> {
     }
     let generated = config.generate_modules().unwrap_or_else(|e| panic!("{e}"));
     let out = Path::new(out);
-    let stale: Vec<String> = ferrolink_codegen::write::stale(out, &generated.files)
+    let stale: Vec<String> = ferrolink_dictionary::write::stale(out, &generated.files)
         .into_iter()
         .map(|name| format!("{}/{name}", out.display()))
         .collect();
     if !stale.is_empty() && std::env::var_os("CI").is_none() {
-        ferrolink_codegen::write::write_all(out, &generated.files).expect("rewrite");
+        ferrolink_dictionary::write::write_all(out, &generated.files).expect("rewrite");
     }
     stale
 }

@@ -12,6 +12,11 @@ fn crate_dir() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The good fixtures, which are the dictionary crate's.
+fn fixtures() -> PathBuf {
+    crate_dir().join("../dictionary/tests/fixtures/ok")
+}
+
 /// The files of a `generated_code_and_ir` snapshot, as (name, text).
 fn snapshot_files(fixture: &str) -> Vec<(String, String)> {
     let path = crate_dir()
@@ -37,7 +42,7 @@ fn formatted(text: &str) -> String {
 
 #[test]
 fn formatting_the_output_gives_the_snapshots() {
-    let fixtures: Vec<PathBuf> = std::fs::read_dir(crate_dir().join("tests/fixtures/ok"))
+    let fixtures: Vec<PathBuf> = std::fs::read_dir(fixtures())
         .expect("fixtures")
         .filter_map(Result::ok)
         .map(|e| e.path())
@@ -70,8 +75,11 @@ fn formatting_the_output_gives_the_snapshots() {
 
 #[test]
 fn toml_input_is_an_error_without_the_toml_feature() {
-    let ring = crate_dir().join("tests/fixtures/ok/tosnet_named.toml");
-    let failed = ferrolink_codegen::load(&[ring]).expect_err("a TOML input must fail");
+    let ring = fixtures().join("tosnet_named.toml");
+    let failed = Config::new()
+        .input(ring)
+        .generate()
+        .expect_err("a TOML input must fail");
     let text = failed.to_string();
     assert!(text.contains("[E0004]"), "{text}");
     assert!(text.contains("`toml` feature"), "{text}");

@@ -16,7 +16,7 @@ fn main() {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let root = ferrolink_codegen::ident::value_name(&stem);
+    let root = ferrolink_dictionary::ident::value_name(&stem);
     let out = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     std::fs::write(
         out.join("root.rs"),

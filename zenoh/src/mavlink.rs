@@ -28,12 +28,12 @@ use std::io;
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
-use ferrolink_codegen::traffic::{FrameDefaults, PayloadDecoder};
 use ferrolink_io::link::Status;
 use ferrolink_io::link::{self, Event, Sender};
 use ferrolink_io::mavlink::router::Attached;
 use ferrolink_runtime::mavlink::router::LinkConfig;
 use ferrolink_runtime::mavlink::{find_meta, AnyFrame, MessageMeta};
+use ferrolink_traffic::{FrameDefaults, PayloadDecoder};
 use zenoh::Wait;
 
 use crate::session::{Rejections, Running, POLL};
@@ -246,10 +246,10 @@ mod tests {
     fn dictionaries() -> Dictionaries {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../definitions/mavlink/minimal.xml");
-        let ir = ferrolink_codegen::load(&[path]).expect("minimal.xml").ir;
+        let ir = ferrolink_dictionary::load(&[path]).expect("minimal.xml").ir;
         let ir: &'static _ = Box::leak(Box::new(ir));
         Dictionaries {
-            table: ferrolink_codegen::traffic::message_table(ir),
+            table: ferrolink_traffic::message_table(ir),
             decoder: Box::leak(Box::new(PayloadDecoder::new(ir))),
         }
     }

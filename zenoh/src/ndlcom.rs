@@ -15,10 +15,10 @@ use std::io;
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
-use ferrolink_codegen::traffic::PayloadDecoder;
 use ferrolink_io::bridge::Attached;
 use ferrolink_io::link::{self, Event, Sender};
 use ferrolink_runtime::ndlcom::{self, parser::Parser, storage_len, Header, FLAG};
+use ferrolink_traffic::PayloadDecoder;
 use zenoh::Wait;
 
 use crate::session::{Rejections, Running, POLL};
@@ -188,7 +188,7 @@ mod tests {
     fn decoder() -> &'static PayloadDecoder<'static> {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../definitions/mavlink/minimal.xml");
-        let ir = ferrolink_codegen::load(&[path]).expect("minimal.xml").ir;
+        let ir = ferrolink_dictionary::load(&[path]).expect("minimal.xml").ir;
         Box::leak(Box::new(PayloadDecoder::new(Box::leak(Box::new(ir)))))
     }
 

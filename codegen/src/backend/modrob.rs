@@ -10,7 +10,7 @@
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-use super::rust::{docs, ident, inner, lit};
+use super::{docs, ident, inner, lit};
 use crate::ir::{Direction, Ir, ModrobModule, ModrobVariable, Robot, Setting, Transport};
 
 /// Emits every dictionary and robot of `ir`, in order, as (module name, tokens).

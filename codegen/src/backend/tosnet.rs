@@ -9,7 +9,7 @@
 use proc_macro2::{Literal, TokenStream};
 use quote::quote;
 
-use super::rust::{docs, ident, inner, lit, primitive};
+use super::{docs, ident, inner, lit, primitive};
 use crate::check::tosnet::AREA_LEN;
 use crate::ident as names;
 use crate::ir::{AreaLayout, Field, Ir, Primitive, Register, Ring, RingNode};

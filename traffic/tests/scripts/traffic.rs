@@ -1,0 +1,68 @@
+//! Invariants of turning JSON into MAVLink frames (`PayloadDecoder::frame_from_json`), shared by
+//! `traffic/tests/json_frame.rs` and the fuzz target `json_frame`.
+//!
+//! For any bytes: if they are JSON and make a frame, that frame is one whole MAVLink 2 frame the
+//! runtime's parser accepts with its CRC, of a message the dictionary knows, whose decoded form
+//! names that message; nothing panics either way.
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use ferrolink_dictionary::ir::Ir;
+use ferrolink_runtime::mavlink::parser::Parser;
+use ferrolink_runtime::mavlink::MessageMeta;
+use ferrolink_traffic::{message_table, FrameDefaults, PayloadDecoder};
+
+/// Our minimal dialect, loaded once.
+fn dictionary() -> &'static (Ir, &'static [MessageMeta]) {
+    static LOADED: OnceLock<(Ir, &'static [MessageMeta])> = OnceLock::new();
+    LOADED.get_or_init(|| {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../definitions/mavlink/minimal.xml");
+        let path = if path.exists() {
+            path
+        } else {
+            // The fuzz crate's manifest sits one level down.
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../definitions/mavlink/minimal.xml")
+        };
+        let ir = ferrolink_dictionary::load(&[path]).expect("minimal.xml").ir;
+        let table = message_table(&ir);
+        (ir, table)
+    })
+}
+
+/// Checks the invariants for one input: the first three bytes pick the defaults, the rest is
+/// the JSON text.
+pub fn check_json_frame(data: &[u8]) {
+    let (ir, table) = dictionary();
+    let decoder = PayloadDecoder::new(ir);
+    let [a, b, c, text @ ..] = data else {
+        return;
+    };
+    let Ok(value) = serde_json::from_slice::<serde_json::Value>(text) else {
+        return;
+    };
+    let defaults = FrameDefaults {
+        sysid: *a,
+        compid: *b,
+        seq: *c,
+        target: (a & 1 == 1).then_some((*b, *c)),
+    };
+    let Ok(frame) = decoder.frame_from_json(&value, defaults) else {
+        return;
+    };
+    let mut parser: Parser = Parser::new(table);
+    let mut frames = Vec::new();
+    parser.feed_all(&frame, |f| {
+        frames.push((f.msg_id(), f.as_bytes().len(), f.payload().to_vec()))
+    });
+    assert_eq!(frames.len(), 1, "one frame from {value}");
+    let (id, len, payload) = &frames[0];
+    assert_eq!(*len, frame.len(), "the whole frame");
+    let dict = decoder.to_dict(*id, payload).expect("a known message");
+    let name = value
+        .get("msg")
+        .unwrap_or(&value)
+        .get("mavpackettype")
+        .cloned();
+    assert_eq!(dict.get("mavpackettype").cloned(), name);
+}
