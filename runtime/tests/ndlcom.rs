@@ -295,3 +295,13 @@ proptest! {
         prop_assert_eq!(stats.bytes, bytes.len());
     }
 }
+
+/// Found by `cargo fuzz run ndlcom_bridge`: interface 0 went cut-through, store & forward and
+/// cut-through again while frames arrived; the plan of a cut-off broadcast was applied to the
+/// next frame, and a frame for 0 was handed to `on_local` of node 1.
+#[test]
+fn fuzz_regression_mode_change_mid_frame() {
+    let script =
+        hex::decode("00ffff0000e7007e30ff7a7e012c7e00ffffffff007e000000000021ff0003").expect("hex");
+    scripts::check_bridge(&script);
+}

@@ -13,6 +13,13 @@
 //!   frame that stalls longer than the byte timeout is cut off with a flag so it cannot block
 //!   the output, and the routing table learns only once the FCS checked.
 //!
+//! A frame is forwarded in the modes that held when its receiver byte came in: changing a
+//! pair's mode while a frame is arriving takes effect with the next frame. A frame whose first
+//! bytes arrived store & forward finishes store & forward (those bytes were not kept for a
+//! stream), and a frame already streaming keeps streaming to its outputs until it ends. Once a
+//! frame's FCS checked, where it goes (locally, into which queues) and what the table learns
+//! follow from its own header, as in store & forward.
+//!
 //! The bridge does no I/O: feed it received bytes with [`Bridge::receive`], call
 //! [`Bridge::poll`] with the time now and then, and pull bytes to send with
 //! [`Bridge::transmit`]. Frames for the node itself (own ids and broadcasts) come back through
@@ -215,6 +222,12 @@ impl<const P: usize> Input<P> {
         }
     }
 
+    /// Whether the per-byte (cut-through) path holds state about the current frame: its
+    /// prefix or its plan. Such a frame must finish on that path, whatever the modes are now.
+    fn in_flight(&self) -> bool {
+        self.plan.is_some() || self.prefix_len > 0
+    }
+
     fn reset_frame(&mut self) {
         self.plan = None;
         self.streams = Ports::NONE;
@@ -284,7 +297,8 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
         &mut self.router
     }
 
-    /// Chooses how frames arriving on `from` are forwarded to `to`.
+    /// Chooses how frames arriving on `from` are forwarded to `to`, from the next frame on: a
+    /// frame arriving on `from` meanwhile finishes in the mode it began in.
     pub fn set_mode(&mut self, from: usize, to: usize, mode: Mode) {
         if let Some(set) = self.cut_through.get_mut(from) {
             *set = match mode {
@@ -441,21 +455,24 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
             return;
         };
         input.last_us = now_us;
-        if cut_through.is_empty() {
-            // Store & forward only: whole slices through the parser.
-            let mut rest = bytes;
-            while let Feed::Frame { frame, remaining } = input.parser.feed(rest) {
-                let header = frame.header();
-                let decision = router.route(i, &header);
-                if decision.local || deliver_all {
-                    on_local(frame);
+        let mut rest = bytes;
+        while let Some((&b, tail)) = rest.split_first() {
+            if cut_through.is_empty() && !input.in_flight() {
+                // Store & forward only, and no frame begun on the per-byte path: whole slices
+                // through the parser.
+                while let Feed::Frame { frame, remaining } = input.parser.feed(rest) {
+                    let header = frame.header();
+                    let decision = router.route(i, &header);
+                    if decision.local || deliver_all {
+                        on_local(frame);
+                    }
+                    enqueue(outputs, frame.as_bytes(), decision.forward);
+                    rest = remaining;
                 }
-                enqueue(outputs, frame.as_bytes(), decision.forward);
-                rest = remaining;
+                return;
             }
-            return;
-        }
-        for &b in bytes {
+            // A cut-through output, or a frame begun here while there was one: byte by byte,
+            // so that the frame's plan and streams end with the frame.
             receive_byte(
                 router,
                 input,
@@ -465,6 +482,7 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
                 deliver_all,
                 &mut on_local,
             );
+            rest = tail;
         }
     }
 }
@@ -498,20 +516,23 @@ fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
         let _ = input.parser.feed(&[FLAG]);
         return;
     }
+    // Whether this path saw the current frame from its first byte: a frame the parser is in
+    // without a prefix kept here began on the store & forward path.
+    let seen_from_start = input.prefix_len > 0 || !input.parser.in_frame();
     let complete = match input.parser.feed(&[b]) {
         Feed::Frame { frame, .. } => {
-            let header = frame.header();
-            let plan = input
-                .plan
-                .unwrap_or_else(|| router.decide(i, header.receiver));
             stream(outputs, &[b], true);
-            if !plan.local {
-                router.learn(i, header.sender);
-            }
-            if plan.local || deliver_all {
+            // The FCS checked: learn, deliver and queue by the frame's own header, as store &
+            // forward does. The plan made from the receiver byte only chose the streams.
+            let decision = router.route(i, &frame.header());
+            if decision.local || deliver_all {
                 on_local(frame);
             }
-            enqueue(outputs, frame.as_bytes(), plan.forward.without_all(streams));
+            enqueue(
+                outputs,
+                frame.as_bytes(),
+                decision.forward.without_all(streams),
+            );
             true
         }
         Feed::Consumed => false,
@@ -541,6 +562,11 @@ fn receive_byte<const N: usize, const P: usize, const Q: usize, const A: usize>(
         };
         let plan = router.decide(i, receiver);
         input.plan = Some(plan);
+        if !seen_from_start {
+            // Its first bytes were not kept for a stream (it began store & forward): it
+            // finishes store & forward, and cut-through starts with the next frame.
+            return;
+        }
         let prefix = input.prefix.get(..input.prefix_len).unwrap_or_default();
         for o in plan.forward.iter().filter(|&o| cut_through.contains(o)) {
             let Some(out) = outputs.get_mut(o) else {
@@ -713,5 +739,76 @@ mod tests {
         let sent = drain(&mut b, 1);
         assert_eq!(sent, [f.clone(), g.clone()].concat());
         assert_eq!(b.stats(1).cut_through, 1);
+    }
+
+    /// Cut-through -> store & forward in mid-frame: the broadcast's plan and stream end with the
+    /// broadcast, and are not applied to the next frame (once: found by `ndlcom_bridge`).
+    #[test]
+    fn plan_of_a_cut_off_frame_does_not_leak_into_the_next() {
+        let mut b = B::new();
+        b.router_mut().add_own_id(1);
+        b.set_mode(0, 2, Mode::CutThrough);
+        let bc = frame(0xff, 9, 0, &[1, 2]);
+        b.receive(0, &bc[..3], 0, |_| panic!("incomplete"));
+        b.set_mode(0, 2, Mode::StoreForward);
+        // A frame for 7 cuts the broadcast short and straddles the switch back.
+        let f = frame(7, 8, 0, &[0x21]);
+        let mut local = Vec::new();
+        b.receive(0, &f[..f.len() - 2], 1, |fr| local.push(fr.header()));
+        b.set_mode(0, 2, Mode::CutThrough);
+        b.receive(0, &f[f.len() - 2..], 2, |fr| local.push(fr.header()));
+        assert!(local.is_empty(), "not for this node: {local:?}");
+        assert_eq!(
+            b.router().lookup(8),
+            Some(0),
+            "learned from the frame's own header"
+        );
+        // Output 2: the broadcast's stream cut off by the flag, then the frame for 7 whole.
+        assert_eq!(drain(&mut b, 2), [&bc[..3], &[FLAG][..], &f].concat());
+        assert_eq!(drain(&mut b, 1), f);
+        assert_eq!(b.stats(0).dropped, 1);
+    }
+
+    /// Store & forward -> cut-through in mid-frame: the frame's first bytes were not kept, so it
+    /// finishes store & forward; cut-through starts with the next frame.
+    #[test]
+    fn frame_begun_store_and_forward_finishes_store_and_forward() {
+        let mut b = B::new();
+        b.router_mut().seed(7, 1);
+        let f = frame(7, 9, 0, &[1, 2, 3]);
+        b.receive(0, &f[..2], 0, |_| {}); // flag and receiver
+        b.set_mode(0, 1, Mode::CutThrough);
+        b.receive(0, &f[2..4], 1, |_| {});
+        assert!(
+            drain(&mut b, 1).is_empty(),
+            "no stream without the frame's first bytes"
+        );
+        b.receive(0, &f[4..], 2, |_| {});
+        assert_eq!(drain(&mut b, 1), f);
+        assert_eq!(b.stats(1).cut_through, 0);
+        assert_eq!(b.router().lookup(9), Some(0));
+        b.receive(0, &f[..3], 3, |_| {});
+        assert_eq!(drain(&mut b, 1), f[..3]);
+        assert_eq!(b.stats(1).cut_through, 1);
+    }
+
+    /// Cut-through -> store & forward in mid-frame, frame intact: the stream already begun
+    /// carries the whole frame, once; the next frame goes store & forward.
+    #[test]
+    fn frame_begun_cut_through_finishes_cut_through() {
+        let mut b = B::new();
+        b.router_mut().seed(7, 1);
+        b.set_mode(0, 1, Mode::CutThrough);
+        let f = frame(7, 9, 0, &[1, 2, 3]);
+        b.receive(0, &f[..3], 0, |_| {});
+        b.set_mode(0, 1, Mode::StoreForward);
+        b.receive(0, &f[3..], 1, |_| {});
+        assert_eq!(drain(&mut b, 1), f);
+        assert_eq!(b.stats(1).cut_through, 1);
+        assert_eq!(b.stats(1).tx_frames, 1, "not queued a second time");
+        b.receive(0, &f[..3], 2, |_| {});
+        assert!(drain(&mut b, 1).is_empty(), "store & forward now");
+        b.receive(0, &f[3..], 3, |_| {});
+        assert_eq!(drain(&mut b, 1), f);
     }
 }
