@@ -104,3 +104,17 @@ fn all_errors_in_one_run() {
         );
     }
 }
+
+/// A field with a bad type hides none of its message's other problems: its duplicate name, its
+/// missing enum, the message's duplicate id and its other bad fields are reported with it.
+#[test]
+fn a_bad_field_type_hides_nothing_else() {
+    in_crate_dir();
+    let out = diagnostics_for(Path::new("tests/fixtures/bad/many_errors_one_message.xml"));
+    for code in ["E0105", "E0303", "E0306", "E0301", "E0106"] {
+        assert!(
+            out.contains(&format!("[{code}]")),
+            "missing {code} in:\n{out}"
+        );
+    }
+}

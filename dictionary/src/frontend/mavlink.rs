@@ -486,7 +486,6 @@ fn read_message(el: &Element, diags: &mut Diagnostics) -> Option<Message> {
         id_span: id_attr.map(|a| a.value_span.clone()),
     };
     let mut extension = false;
-    let mut fields_ok = true;
     for child in &el.children {
         match child.name.as_str() {
             "description" => msg.description = child.text.clone(),
@@ -494,25 +493,28 @@ fn read_message(el: &Element, diags: &mut Diagnostics) -> Option<Message> {
             "superseded" => msg.deprecated = Some(read_deprecation(child, true, diags)),
             "wip" => msg.wip = true,
             "extensions" => extension = true,
-            "field" => match read_field(child, extension, diags) {
-                Some(f) => msg.fields.push(f),
-                None => fields_ok = false,
-            },
+            "field" => msg.fields.extend(read_field(child, extension, diags)),
             _ => unknown_element(child, "<message>", diags),
         }
     }
-    // A message with a bad field keeps its good ones so that their problems are reported too;
-    // errors were reported, so no code is generated from it. With no good field left it is
-    // dropped, to avoid a misleading "empty message".
-    let has_fields = fields_ok || !msg.fields.is_empty();
-    (name.is_some() && id.is_some() && has_fields).then_some(msg)
+    // A message with a bad field type keeps that field (see `read_field`) and is checked like any
+    // other, so that its other problems (duplicate fields, missing enums, a duplicate id) are
+    // reported in the same run; errors were reported, so no code is generated from it.
+    (name.is_some() && id.is_some()).then_some(msg)
 }
 
 fn read_field(el: &Element, extension: bool, diags: &mut Diagnostics) -> Option<Field> {
     check_attrs(el, FIELD_ATTRS, diags);
     let name = name_attr(el, diags);
     let ty = required(el, "type", diags).and_then(|a| parse_type(a, diags));
-    let (name, ty) = (name?, ty?);
+    // A field whose type is missing or bad was reported; it stays, as one byte, so that the
+    // checks on its name and enum still run.
+    let ty = ty.unwrap_or(FieldType {
+        primitive: Primitive::U8,
+        array: None,
+        mavlink_version: false,
+    });
+    let name = name?;
     let enum_attr = el.attr("enum").filter(|a| !a.value.is_empty());
     Some(Field {
         name: Name {
