@@ -289,3 +289,26 @@ fn config_readers_survive_odd_text() {
         scripts::check_config(text.as_bytes());
     }
 }
+
+/// The blocking iterator waits through a quiet spell longer than any `recv` timeout a loop
+/// would use, and goes on with the next frame.
+#[test]
+fn frames_block_through_quiet_spells() {
+    let mut server = Connection::open("udpin://127.0.0.1:0", META).unwrap();
+    let port = server.local_addr().unwrap().port();
+    let sender = std::thread::spawn(move || {
+        let mut client = Connection::open(&format!("udpout:127.0.0.1:{port}"), META).unwrap();
+        client.set_ids(7, 1);
+        for pause in [0, 1500] {
+            std::thread::sleep(Duration::from_millis(pause));
+            client.send_raw(0, 50, &[0; 9]).unwrap();
+        }
+    });
+    let got: Vec<u8> = server
+        .frames()
+        .take(2)
+        .map(|f| f.expect("a frame").header().seq)
+        .collect();
+    assert_eq!(got, [0, 1]);
+    sender.join().unwrap();
+}

@@ -8,11 +8,16 @@
 //! // works too). With generated bindings, pass `Message::META` of the dialect.
 //! let mut vehicle = Connection::open("udpin://0.0.0.0:14550", META)?;
 //! vehicle.set_ids(255, 190);
-//! while let Some(frame) = vehicle.recv(std::time::Duration::from_secs(1))? {
+//! // Blocks for each frame, through quiet spells, until the connection stops.
+//! for frame in vehicle.frames() {
+//!     let frame = frame?;
 //!     println!("{} from {}/{}", frame.msg_id(), frame.header().sysid, frame.header().compid);
 //! }
 //! # Ok::<(), std::io::Error>(())
 //! ```
+//!
+//! [`Connection::messages`] does the same with decoded messages of a dialect, and
+//! [`Connection::recv`] waits at most a given time.
 
 pub mod config;
 pub mod router;
@@ -397,6 +402,91 @@ impl Connection<Blocking> {
             }
         }
         Ok(None)
+    }
+
+    /// Waits for the next frame, however long it takes. An error only when the connection
+    /// stopped.
+    pub fn recv_blocking(&mut self) -> io::Result<Frame> {
+        loop {
+            if let Some(frame) = self.queue.pop_front() {
+                return Ok(frame);
+            }
+            match self.events.0.recv() {
+                Ok(event) => self.handle(event),
+                Err(mpsc::RecvError) => return Err(self.stopped()),
+            }
+        }
+    }
+
+    /// Every frame as it arrives: the iterator blocks for the next one, through quiet spells,
+    /// and ends after the error that says the connection stopped.
+    ///
+    /// ```no_run
+    /// # use ferrolink_io::mavlink::Connection;
+    /// # let mut vehicle = Connection::open("udpin://0.0.0.0:14550", &[])?;
+    /// for frame in vehicle.frames().take(10) {
+    ///     println!("message {}", frame?.msg_id());
+    /// }
+    /// # Ok::<(), std::io::Error>(())
+    /// ```
+    pub fn frames(&mut self) -> Frames<'_> {
+        Frames {
+            connection: self,
+            stopped: false,
+        }
+    }
+
+    /// Every message of dialect `D` as it arrives, with its header; frames `D` lacks are
+    /// skipped. Blocks as [`Connection::frames`] does.
+    pub fn messages<D: Dialect>(&mut self) -> Messages<'_, D> {
+        Messages {
+            frames: self.frames(),
+            dialect: std::marker::PhantomData,
+        }
+    }
+}
+
+/// The blocking iterator of [`Connection::frames`].
+#[derive(Debug)]
+pub struct Frames<'c> {
+    connection: &'c mut Connection<Blocking>,
+    stopped: bool,
+}
+
+impl Iterator for Frames<'_> {
+    type Item = io::Result<Frame>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.stopped {
+            return None;
+        }
+        let next = self.connection.recv_blocking();
+        self.stopped = next.is_err();
+        Some(next)
+    }
+}
+
+/// The blocking iterator of [`Connection::messages`].
+#[derive(Debug)]
+pub struct Messages<'c, D> {
+    frames: Frames<'c>,
+    dialect: std::marker::PhantomData<fn() -> D>,
+}
+
+impl<D: Dialect> Iterator for Messages<'_, D> {
+    type Item = io::Result<(Header, D)>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            match self.frames.next()? {
+                Ok(frame) => {
+                    if let Ok(message) = frame.decode::<D>() {
+                        return Some(Ok((frame.header(), message)));
+                    }
+                }
+                Err(e) => return Some(Err(e)),
+            }
+        }
     }
 }
 
