@@ -48,7 +48,7 @@ pub enum Command {
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
         /// udpin://HOST:PORT | udpout://HOST:PORT | tcpin://HOST:PORT | tcpout://HOST:PORT |
-        /// serial://PATH[:BAUD] |
+        /// serial://PATH[:BAUD] | pty://NAME (a pseudo-terminal linked at NAME) |
         /// zenoh://?mode=peer&listen=tcp/HOST:PORT[&connect=tcp/HOST:PORT][&encoding=raw|json][&prefix=ferrolink]
         #[arg(required_unless_present = "config", value_name = "ENDPOINT")]
         endpoints: Vec<String>,

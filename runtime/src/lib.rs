@@ -22,6 +22,10 @@
 
 #[cfg(any(test, feature = "std"))]
 extern crate std;
+// The test dialect (`mavlink::testing`) names the crate by its absolute path, as generated code
+// does, so that the integration tests can include the same file.
+#[cfg(test)]
+extern crate self as ferrolink_runtime;
 
 pub mod crc;
 #[cfg(feature = "mavlink")]

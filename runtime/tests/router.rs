@@ -3,7 +3,7 @@
 //! its checksum, counters add up).
 
 use ferrolink_runtime::mavlink::router::{
-    Drop, Filter, LinkConfig, LinkMask, NoFilter, Router, DEFAULT_ROUTE_TTL_US,
+    DropReason, Filter, LinkConfig, LinkMask, NoFilter, Router, DEFAULT_ROUTE_TTL_US,
 };
 use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
 use ferrolink_runtime::mavlink::{v1, v2, Header, MessageMeta};
@@ -73,7 +73,7 @@ fn router(links: usize) -> R {
 }
 
 /// Feeds `bytes` on `from` at time `t` and returns (mask, drop) per frame.
-fn feed(r: &mut R, from: usize, bytes: &[u8], t: u64) -> Vec<(LinkMask, Option<Drop>)> {
+fn feed(r: &mut R, from: usize, bytes: &[u8], t: u64) -> Vec<(LinkMask, Option<DropReason>)> {
     let mut out = Vec::new();
     r.receive(from, bytes, t, t, |routed| {
         assert_eq!(routed.from, from);
@@ -83,7 +83,7 @@ fn feed(r: &mut R, from: usize, bytes: &[u8], t: u64) -> Vec<(LinkMask, Option<D
     out
 }
 
-fn one(r: &mut R, from: usize, bytes: &[u8], t: u64) -> (LinkMask, Option<Drop>) {
+fn one(r: &mut R, from: usize, bytes: &[u8], t: u64) -> (LinkMask, Option<DropReason>) {
     let got = feed(r, from, bytes, t);
     assert_eq!(got.len(), 1, "one frame");
     got[0]
@@ -129,7 +129,7 @@ fn unknown_target_is_dropped_and_counted() {
     let mut r = router(3);
     one(&mut r, 1, &heartbeat(1, 1), 0);
     let cmd = frame(COMMAND_LONG, 255, 190, 0, (9, 1));
-    assert_eq!(one(&mut r, 0, &cmd, 1), (0, Some(Drop::NoRoute)));
+    assert_eq!(one(&mut r, 0, &cmd, 1), (0, Some(DropReason::NoRoute)));
     assert_eq!(r.link_counters(0).unwrap().drops.no_route, 1);
 }
 
@@ -140,7 +140,7 @@ fn no_echo_even_when_the_target_sits_on_the_source_link() {
     one(&mut r, 0, &heartbeat(255, 190), 0);
     // The GCS addresses the vehicle on its own link: nothing to forward.
     let cmd = frame(COMMAND_LONG, 255, 190, 0, (1, 1));
-    assert_eq!(one(&mut r, 0, &cmd, 1), (0, Some(Drop::NoRoute)));
+    assert_eq!(one(&mut r, 0, &cmd, 1), (0, Some(DropReason::NoRoute)));
 }
 
 #[test]
@@ -183,7 +183,7 @@ fn bad_crc_and_garbage_teach_no_route() {
     assert!(r.link_counters(1).unwrap().crc_failures >= 1);
     assert!(r.link_counters(1).unwrap().garbage_bytes > 0);
     let cmd = frame(COMMAND_LONG, 255, 190, 0, (9, 1));
-    assert_eq!(one(&mut r, 0, &cmd, 1), (0, Some(Drop::NoRoute)));
+    assert_eq!(one(&mut r, 0, &cmd, 1), (0, Some(DropReason::NoRoute)));
 }
 
 #[test]
@@ -220,7 +220,10 @@ fn groups_share_routes_and_never_feed_each_other() {
     let hb = heartbeat(1, 1);
     assert_eq!(one(&mut r, radio_a, &hb, 0), (1 << gcs, None));
     // The same frame through the other radio is a duplicate.
-    assert_eq!(one(&mut r, radio_b, &hb, 10), (0, Some(Drop::Duplicate)));
+    assert_eq!(
+        one(&mut r, radio_b, &hb, 10),
+        (0, Some(DropReason::Duplicate))
+    );
     assert_eq!(r.link_counters(radio_b).unwrap().drops.duplicate, 1);
     let cmd = frame(COMMAND_LONG, 255, 190, 0, (1, 1));
     assert_eq!(
@@ -254,7 +257,7 @@ fn filters_in_and_out() {
 
     assert_eq!(
         one(&mut r, a, &heartbeat(66, 1), 0),
-        (0, Some(Drop::FilteredIn))
+        (0, Some(DropReason::FilteredIn))
     );
     assert_eq!(r.routes().count(), 0, "a filtered frame teaches nothing");
     assert_eq!(
@@ -267,7 +270,10 @@ fn filters_in_and_out() {
     // Everything stopped on the way out.
     let only_b = frame(COMMAND_LONG, 1, 1, 2, (5, 0));
     one(&mut r, b, &heartbeat(5, 1), 0);
-    assert_eq!(one(&mut r, a, &only_b, 0), (0, Some(Drop::FilteredOut)));
+    assert_eq!(
+        one(&mut r, a, &only_b, 0),
+        (0, Some(DropReason::FilteredOut))
+    );
 }
 
 #[test]
@@ -298,7 +304,7 @@ fn routes_age_out_and_closed_links_forget_theirs() {
     assert_eq!(one(&mut r, 0, &cmd, DEFAULT_ROUTE_TTL_US), (0b010, None));
     assert_eq!(
         one(&mut r, 0, &cmd, DEFAULT_ROUTE_TTL_US + 1),
-        (0, Some(Drop::NoRoute))
+        (0, Some(DropReason::NoRoute))
     );
     r.expire(DEFAULT_ROUTE_TTL_US + 1);
     assert!(r.counters().routes_expired >= 1);
@@ -403,18 +409,18 @@ fn signing_at_the_edge() {
     // A replay of the same frame.
     assert_eq!(
         one(&mut r, trusted, &good, now),
-        (0, Some(Drop::BadSignature))
+        (0, Some(DropReason::BadSignature))
     );
     // Unsigned, and signed with another key.
     assert_eq!(
         one(&mut r, trusted, &heartbeat(2, 1), now),
-        (0, Some(Drop::Unsigned))
+        (0, Some(DropReason::Unsigned))
     );
     let mut stranger = Signer::new(SecretKey::new([8; 32]), 3);
     let forged = signed_heartbeat(&mut stranger, now + 10, 4);
     assert_eq!(
         one(&mut r, trusted, &forged, now),
-        (0, Some(Drop::BadSignature))
+        (0, Some(DropReason::BadSignature))
     );
     let drops = r.link_counters(trusted).unwrap().drops;
     assert_eq!((drops.unsigned, drops.bad_signature), (1, 2));

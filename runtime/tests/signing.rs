@@ -10,7 +10,7 @@ use ferrolink_runtime::mavlink::signing::{
 use ferrolink_runtime::mavlink::{v2, Header};
 
 fn key() -> SecretKey {
-    SecretKey::new(golden_key())
+    SecretKey::new(GOLDEN_KEY)
 }
 
 fn signed(signer: &mut Signer, now: u64, header: Header) -> Vec<u8> {

@@ -76,7 +76,7 @@ fn run_chunked(
 /// A stream of many frames of every kind, with a little noise between some of them.
 fn mixed_stream() -> (Vec<u8>, Vec<Vec<u8>>) {
     let mut rng = XorShift::new(0x5EED_0001);
-    let mut signer = Signer::new(SecretKey::new(golden_key()), 3);
+    let mut signer = Signer::new(SecretKey::new(GOLDEN_KEY), 3);
     let mut stream = hex("00fdfe55");
     let mut expected = Vec::new();
     for i in 0..36 {
@@ -162,7 +162,7 @@ fn intact(rng: &mut XorShift, signer: &mut Signer) -> (Vec<u8>, Kind) {
 /// unknown incompat flags.
 fn torture(seed: u64, wanted: usize) -> Torture {
     let mut rng = XorShift::new(seed);
-    let mut signer = Signer::new(SecretKey::new(golden_key()), 9);
+    let mut signer = Signer::new(SecretKey::new(GOLDEN_KEY), 9);
     let mut t = Torture {
         stream: Vec::new(),
         expected: Vec::new(),

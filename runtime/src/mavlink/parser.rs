@@ -852,7 +852,7 @@ mod tests {
             stream.extend_from_slice(&out[..n]);
         }
         let ext = ExtMsg {
-            ext_u32: 5,
+            ext_f32: 5.0,
             ..Default::default()
         };
         let m = v2::encode(Header::new(1, 2, 3), &ext, &mut out[..100]).unwrap();

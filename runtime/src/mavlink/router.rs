@@ -17,7 +17,7 @@
 //!   goes to every other link.
 //! - **Addressed.** With `target_component` non-zero and the exact pair seen, the frame goes to
 //!   the links where that pair was seen; otherwise to every link where `target_system` was seen.
-//!   A target seen nowhere gets nothing, and the frame counts as [`Drop::NoRoute`].
+//!   A target seen nowhere gets nothing, and the frame counts as [`DropReason::NoRoute`].
 //! - **Groups.** Links with the same non-zero [`LinkConfig::group`] share their routes: a frame
 //!   routed to one of them goes to all of them.
 //! - **Filters** allow or block by message id, source system and source component, inbound
@@ -264,7 +264,7 @@ pub struct LinkConfig<F = Filter> {
 /// Why a frame was not forwarded anywhere, or not to some link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[non_exhaustive]
-pub enum Drop {
+pub enum DropReason {
     /// The link requires signing and the frame was not signed.
     Unsigned,
     /// The link requires signing and the signature was wrong, or the frame a replay.
@@ -279,18 +279,18 @@ pub enum Drop {
     FilteredOut,
 }
 
-/// Drop counters, by [`Drop`] reason.
+/// Drop counters, by [`DropReason`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Drops {
-    /// [`Drop::Unsigned`].
+    /// [`DropReason::Unsigned`].
     pub unsigned: u64,
-    /// [`Drop::BadSignature`].
+    /// [`DropReason::BadSignature`].
     pub bad_signature: u64,
-    /// [`Drop::Duplicate`].
+    /// [`DropReason::Duplicate`].
     pub duplicate: u64,
-    /// [`Drop::FilteredIn`].
+    /// [`DropReason::FilteredIn`].
     pub filtered_in: u64,
-    /// [`Drop::NoRoute`].
+    /// [`DropReason::NoRoute`].
     pub no_route: u64,
     /// Copies not sent on this link because of its outbound filter (counted on the link that
     /// would have sent).
@@ -300,14 +300,14 @@ pub struct Drops {
 }
 
 impl Drops {
-    fn count(&mut self, why: Drop) {
+    fn count(&mut self, why: DropReason) {
         match why {
-            Drop::Unsigned => self.unsigned += 1,
-            Drop::BadSignature => self.bad_signature += 1,
-            Drop::Duplicate => self.duplicate += 1,
-            Drop::FilteredIn => self.filtered_in += 1,
-            Drop::NoRoute => self.no_route += 1,
-            Drop::FilteredOut => {}
+            DropReason::Unsigned => self.unsigned += 1,
+            DropReason::BadSignature => self.bad_signature += 1,
+            DropReason::Duplicate => self.duplicate += 1,
+            DropReason::FilteredIn => self.filtered_in += 1,
+            DropReason::NoRoute => self.no_route += 1,
+            DropReason::FilteredOut => {}
         }
     }
 
@@ -396,7 +396,7 @@ pub struct Routed<'a> {
     /// The links to send it to (empty when dropped).
     pub to: LinkMask,
     /// Why it goes nowhere, if it was dropped as a whole.
-    pub dropped: Option<Drop>,
+    pub dropped: Option<DropReason>,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -639,7 +639,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
         frame: &ParsedFrame<'_>,
         rx_us: u64,
         now_us: u64,
-    ) -> (LinkMask, Option<Drop>) {
+    ) -> (LinkMask, Option<DropReason>) {
         let header = frame.header();
         let bytes = frame.as_bytes();
         let len = bytes.len() as u64;
@@ -660,10 +660,10 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
             .inbound
             .passes(frame.msg_id(), header.sysid, header.compid);
         if dedup_window > 0 && self.is_duplicate(bytes, rx_us, dedup_window) {
-            return self.drop_frame(from, Drop::Duplicate);
+            return self.drop_frame(from, DropReason::Duplicate);
         }
         if !passes_in {
-            return self.drop_frame(from, Drop::FilteredIn);
+            return self.drop_frame(from, DropReason::FilteredIn);
         }
 
         self.count_source(header.sysid, header.compid, header.seq, len, rx_us);
@@ -678,7 +678,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
         };
         let candidates = candidates & !((1 << from) | self.group_mask(from));
         if candidates == 0 {
-            return self.drop_frame(from, Drop::NoRoute);
+            return self.drop_frame(from, DropReason::NoRoute);
         }
         let mut to: LinkMask = 0;
         let age = now_us.saturating_sub(rx_us);
@@ -709,12 +709,12 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
             source.tx_frames += u64::from(to.count_ones());
         }
         if to == 0 {
-            return (0, Some(Drop::FilteredOut));
+            return (0, Some(DropReason::FilteredOut));
         }
         (to, None)
     }
 
-    fn drop_frame(&mut self, from: usize, why: Drop) -> (LinkMask, Option<Drop>) {
+    fn drop_frame(&mut self, from: usize, why: DropReason) -> (LinkMask, Option<DropReason>) {
         if let Some(link) = self.links.get_mut(from) {
             link.counters.drops.count(why);
         }
@@ -845,17 +845,17 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
 
 impl<F> Link<F> {
     /// The signing checks of a link that requires signing.
-    fn check_signature(&mut self, frame: &ParsedFrame<'_>, rx_us: u64) -> Result<(), Drop> {
+    fn check_signature(&mut self, frame: &ParsedFrame<'_>, rx_us: u64) -> Result<(), DropReason> {
         let Some(verifier) = &mut self.verifier else {
             return Ok(());
         };
         let Some(v2) = frame.as_v2() else {
-            return Err(Drop::Unsigned);
+            return Err(DropReason::Unsigned);
         };
         match verifier.verify(v2, timestamp_from_unix_micros(rx_us)) {
             Ok(()) => Ok(()),
-            Err(VerifyError::Unsigned) => Err(Drop::Unsigned),
-            Err(_) => Err(Drop::BadSignature),
+            Err(VerifyError::Unsigned) => Err(DropReason::Unsigned),
+            Err(_) => Err(DropReason::BadSignature),
         }
     }
 }

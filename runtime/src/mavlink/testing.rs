@@ -1,10 +1,13 @@
 //! A hand-written test dialect, written the way generated code is: HEARTBEAT, a message with
-//! extension fields, and a message with the largest payload and a 24-bit id.
+//! extension fields, and a message with the largest payload and a 24-bit id; and the golden
+//! frames. Shared by the unit tests here and the integration tests (`tests/common/mod.rs`
+//! includes this file), so paths are absolute.
+#![allow(dead_code)]
 
 use std::vec::Vec;
 
-use super::{Dialect, Message, MessageMeta, PayloadBuf, UnknownMessageId};
-use crate::wire::{get, put, zero_extend};
+use ferrolink_runtime::mavlink::{Dialect, Message, MessageMeta, PayloadBuf, UnknownMessageId};
+use ferrolink_runtime::wire::{get, put, zero_extend};
 
 /// HEARTBEAT type=2 autopilot=3 base_mode=0x51 custom_mode=4 system_status=4
 /// mavlink_version=3 from sysid 1, compid 1, seq 0.
@@ -14,8 +17,11 @@ pub const GOLDEN_V1: &str = "fe0900010100040000000203510403e16d";
 /// The same message signed with key 00 01 .. 1f on link 7.
 pub const GOLDEN_SIGNED: &str =
     "fd0901000001010000000400000002035104039c56079a7856341200fab266b949d9";
+/// The signing timestamp of [`GOLDEN_SIGNED`].
+pub const GOLDEN_TIMESTAMP: u64 = 0x12_3456_789A;
+/// The signing link id of [`GOLDEN_SIGNED`].
+pub const GOLDEN_LINK: u8 = 7;
 /// The signing key of [`GOLDEN_SIGNED`].
-#[cfg(feature = "signing")]
 pub const GOLDEN_KEY: [u8; 32] = {
     let mut k = [0u8; 32];
     let mut i = 0;
@@ -81,40 +87,40 @@ impl Message for Heartbeat {
     }
 }
 
-/// A message with extension fields: base `u32 @0, u16 @4, u8 @6`, extensions `u8 @7, u32 @8`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+/// A message with extension fields: base `i32 @0, u16 @4, u8 @6`, extensions `u8 @7, f32 @8`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ExtMsg {
-    pub base_u32: u32,
+    pub base_i32: i32,
     pub base_u16: u16,
     pub base_u8: u8,
     pub ext_u8: u8,
-    pub ext_u32: u32,
+    pub ext_f32: f32,
 }
 
 impl Message for ExtMsg {
-    const ID: u32 = 300;
+    const ID: u32 = 200;
     const NAME: &'static str = "EXT_TEST";
-    const CRC_EXTRA: u8 = 123;
+    const CRC_EXTRA: u8 = 0xC3;
     const MIN_LEN: usize = 7;
     const MAX_LEN: usize = 12;
 
     fn encode(&self, buf: &mut PayloadBuf) -> usize {
-        put(buf, 0, self.base_u32);
+        put(buf, 0, self.base_i32);
         put(buf, 4, self.base_u16);
         put(buf, 6, self.base_u8);
         put(buf, 7, self.ext_u8);
-        put(buf, 8, self.ext_u32);
+        put(buf, 8, self.ext_f32);
         Self::MAX_LEN
     }
 
     fn decode(payload: &[u8]) -> Self {
         let p = zero_extend::<12>(payload);
         Self {
-            base_u32: get(&p, 0),
+            base_i32: get(&p, 0),
             base_u16: get(&p, 4),
             base_u8: get(&p, 6),
             ext_u8: get(&p, 7),
-            ext_u32: get(&p, 8),
+            ext_f32: get(&p, 8),
         }
     }
 }
@@ -140,7 +146,7 @@ impl Message for Big {
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[allow(clippy::large_enum_variant)]
 pub enum TestDialect {
     Heartbeat(Heartbeat),
@@ -148,7 +154,8 @@ pub enum TestDialect {
     Big(Big),
 }
 
-const fn meta<M: Message>() -> MessageMeta {
+/// The metadata of `M`, as a generated table has it (no target fields).
+pub const fn meta_of<M: Message>() -> MessageMeta {
     MessageMeta {
         id: M::ID,
         name: M::NAME,
@@ -161,7 +168,11 @@ const fn meta<M: Message>() -> MessageMeta {
 }
 
 impl Dialect for TestDialect {
-    const META: &'static [MessageMeta] = &[meta::<Heartbeat>(), meta::<ExtMsg>(), meta::<Big>()];
+    const META: &'static [MessageMeta] = &[
+        meta_of::<Heartbeat>(),
+        meta_of::<ExtMsg>(),
+        meta_of::<Big>(),
+    ];
 
     fn decode(id: u32, payload: &[u8]) -> Result<Self, UnknownMessageId> {
         match id {

@@ -350,11 +350,11 @@ mod tests {
     fn sends_base_fields_only_and_zero_fills_extensions() {
         // Re-id the extension message below 256 to send it over MAVLink 1.
         let msg = ExtMsg {
-            base_u32: 1,
+            base_i32: 1,
             base_u16: 0,
             base_u8: 0,
             ext_u8: 9,
-            ext_u32: 10,
+            ext_f32: 10.0,
         };
         let mut payload = [0u8; 255];
         let n = msg.encode(&mut payload);
@@ -369,7 +369,7 @@ mod tests {
             back,
             ExtMsg {
                 ext_u8: 0,
-                ext_u32: 0,
+                ext_f32: 0.0,
                 ..msg
             }
         );
@@ -379,7 +379,7 @@ mod tests {
     fn refuses_ids_above_255() {
         let mut out = [0xA5u8; MAX_FRAME_LEN];
         assert_eq!(
-            encode(HB, &ExtMsg::default(), &mut out),
+            encode(HB, &Big([1; 255]), &mut out),
             Err(EncodeError::IdOutOfRange)
         );
         assert_eq!(

@@ -530,11 +530,11 @@ mod tests {
     #[test]
     fn extensions_truncate_and_zero_fill() {
         let msg = ExtMsg {
-            base_u32: 0x0403_0201,
+            base_i32: 0x0403_0201,
             base_u16: 0,
             base_u8: 0,
             ext_u8: 0,
-            ext_u32: 0,
+            ext_f32: 0.0,
         };
         let mut out = [0xA5u8; 64];
         let n = encode(Header::new(9, 2, 3), &msg, &mut out).unwrap();
@@ -549,7 +549,7 @@ mod tests {
         assert_eq!(frame.decode::<TestDialect>(), Ok(TestDialect::Ext(msg)));
 
         let full = ExtMsg {
-            ext_u32: 0xDEAD_BEEF,
+            ext_f32: f32::from_bits(0xDEAD_BEEF),
             ..msg
         };
         let n = encode(Header::new(9, 2, 3), &full, &mut out).unwrap();
