@@ -6,7 +6,7 @@
 # Two throwaway crates, each in its own temporary directory with its own target directory:
 #   ferrolink: build.rs runs ferrolink_codegen on common.xml, lib.rs include!s the result
 #              (ferrolink-runtime and ferrolink-codegen from this repository, by path; the
-#              generator without default features, as the README advises for a build.rs: no
+#              generator without default features, as docs/generator.md advises for a build.rs: no
 #              formatting of what lands in OUT_DIR);
 #   mavlink:   depends on mavlink 0.21, default features off, `dialect-common` + `std`
 #              (one of `std`/`embedded` is required to compile).

@@ -142,9 +142,9 @@ codes! {
     /// An attribute the element does not have.
     UnknownAttribute = "W0102", Warning, "mavgen ignores it too; check the spelling";
     /// A key the TOML format does not have.
-    UnknownKey = "W0103", Warning, "it is ignored; check the spelling against the format in the README";
+    UnknownKey = "W0103", Warning, "it is ignored; check the spelling against the format in docs/tosnet.md or docs/modrob.md";
     /// A required attribute, element or key is missing.
-    Missing = "E0103", Error, "add it; see the dialect format in the README";
+    Missing = "E0103", Error, "add it; see the formats in docs/generator.md, docs/tosnet.md and docs/modrob.md";
     /// A value of the wrong type, or a number that does not parse or is out of range.
     BadNumber = "E0104", Error, "write a value of the type it takes; numbers in range, as decimal, 0x.. or 0b.. (or 2**n in XML)";
     /// A field type that is not one of the MAVLink types.
