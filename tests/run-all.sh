@@ -51,6 +51,9 @@ command -v tshark >/dev/null 2>&1 || missing+=(tshark)
 command -v luac5.2 >/dev/null 2>&1 || missing+=(lua5.2)
 command -v luac5.4 >/dev/null 2>&1 || missing+=(lua5.4)
 command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+# A TrueType font for `ferrolink mavlink stats --plot FILE.png`.
+dejavu=/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf
+[ -f "$dejavu" ] || missing+=(fonts-dejavu-core)
 if [ ${#missing[@]} -gt 0 ]; then
   echo "== installing ${missing[*]} from Debian's packages"
   sudo=""
@@ -64,6 +67,9 @@ if command -v tshark >/dev/null 2>&1; then
 fi
 if command -v chromium >/dev/null 2>&1; then
   export FERROLINK_REQUIRE_CHROMIUM=1
+fi
+if [ -f "$dejavu" ]; then
+  export FERROLINK_REQUIRE_FONTS=1
 fi
 
 # CI never writes snapshots.

@@ -86,7 +86,12 @@ pub fn run(args: DiffArgs) -> Result<ExitCode, Box<dyn std::error::Error>> {
         FormatArg::Json => Format::Json,
         FormatArg::Github => Format::Github,
     };
-    print!("{}", diff::render(&findings, format));
+    {
+        use std::io::Write as _;
+        let mut out = std::io::stdout().lock();
+        write!(out, "{}", diff::render(&findings, format))?;
+        out.flush()?;
+    }
     let fail_on = match args.fail_on {
         FailOn::Wire => Category::Wire,
         FailOn::Semantic => Category::Semantic,

@@ -105,11 +105,32 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli.command) {
         Ok(code) => code,
+        // Whoever read our output stopped reading (`| head`): stop quietly, as Unix tools do.
+        Err(e) if is_broken_pipe(e.as_ref()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("{e}");
             ExitCode::FAILURE
         }
     }
+}
+
+/// Whether `e`, or an error it wraps, is a write to a closed pipe.
+fn is_broken_pipe(e: &(dyn std::error::Error + 'static)) -> bool {
+    let mut next = Some(e);
+    while let Some(e) = next {
+        if e.downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+        {
+            return true;
+        }
+        if let Some(json) = e.downcast_ref::<serde_json::Error>() {
+            if json.io_error_kind() == Some(std::io::ErrorKind::BrokenPipe) {
+                return true;
+            }
+        }
+        next = e.source();
+    }
+    false
 }
 
 /// The `encode` commands' loop: every non-empty line of stdin through `encode`, each frame printed
@@ -267,7 +288,9 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Ir { inputs } => {
             let checked = ferrolink_dictionary::load(&inputs)?;
             print_warnings(&checked.warnings);
-            println!("{}", serde_json::to_string_pretty(&checked.ir)?);
+            let mut out = std::io::stdout().lock();
+            serde_json::to_writer_pretty(&mut out, &checked.ir)?;
+            std::io::Write::write_all(&mut out, b"\n")?;
             Ok(ExitCode::SUCCESS)
         }
     }

@@ -92,8 +92,10 @@ pub enum Command {
         /// Dialect XML to name messages with; repeatable. Without it, our own definitions.
         #[arg(long, value_name = "FILE.xml")]
         dialect: Vec<PathBuf>,
-        /// Write the message rate over time per message type as an SVG plot.
-        #[arg(long, value_name = "FILE.svg")]
+        /// Write a plot: a heat map of the rate of each message type of each source over time
+        /// (log colour scale) above each source's sequence loss. FILE.svg, or FILE.png (needs a
+        /// TrueType font such as DejaVu Sans).
+        #[arg(long, value_name = "FILE.svg|FILE.png")]
         plot: Option<PathBuf>,
         /// The log.
         file: PathBuf,

@@ -1,5 +1,6 @@
 //! `ferrolink tosnet ...`: the cycle-rate model against a simulated ring.
 
+use std::io::Write as _;
 use std::process::ExitCode;
 
 use clap::Subcommand;
@@ -69,16 +70,19 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let r = usize::from(registers);
     let rate = model_rate(i, r, bitrate, node_delay * 1e3);
     let bits = 32 + 256 * r;
-    println!(
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
         "model: {i} node(s), r = {r}, {} bit/s, {node_delay} µs per node",
         bitrate
-    );
-    println!(
+    )?;
+    writeln!(
+        out,
         "  DATA frame {} bytes ({bits} bits), cycle {:.2} µs -> {:.1} Hz",
         bits / 8,
         1e6 / rate,
         rate
-    );
+    )?;
     if no_simulation {
         return Ok(ExitCode::SUCCESS);
     }
@@ -93,12 +97,13 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             Forwarding::StoreAndForward => "store & forward",
         };
         match simulate(nodes, registers, model) {
-            Some(measured) => println!(
+            Some(measured) => writeln!(
+                out,
                 "simulated, {label}: cycle {:.2} µs -> {measured:.1} Hz ({:+.2} % from the model)",
                 1e6 / measured,
                 (measured / rate - 1.0) * 100.0
-            ),
-            None => println!("simulated, {label}: the ring did not set up"),
+            )?,
+            None => writeln!(out, "simulated, {label}: the ring did not set up")?,
         }
     }
     Ok(ExitCode::SUCCESS)

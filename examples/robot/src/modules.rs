@@ -282,7 +282,7 @@ pub fn build(instance: &'static Instance, index: usize) -> Box<dyn Module> {
         "bumper" => Node::boxed(instance, bumper::engine(), Bumper),
         "motion_control" => Node::boxed(instance, motion_control::engine(), Motion::default()),
         "planar_obstacle_search" => {
-            let side = if index % 2 == 0 { 1.0 } else { -1.0 };
+            let side = if index.is_multiple_of(2) { 1.0 } else { -1.0 };
             Node::boxed(instance, planar_obstacle_search::engine(), Planar { side })
         }
         "spatial_obstacle_search" => {
