@@ -31,5 +31,7 @@ pub use config::{Config, Generated};
 pub use ferrolink_dictionary::write::GeneratedFile;
 pub use ferrolink_dictionary::{Carrier, Diagnostic, Failed};
 
-use ferrolink_dictionary::{check, diag, ident, ir, write};
+#[cfg(feature = "toml")]
+use ferrolink_dictionary::{check, ident};
+use ferrolink_dictionary::{diag, ir, write};
 use ferrolink_dictionary::{load_for, Checked};
