@@ -49,7 +49,7 @@ Wireshark's Lua 5.4 builds take are exercised too.
   tosnet                      Every command; DATA before setup (map order), after NET_SET and
                               REG_SET (ring order 0 2 1 3), with a bad CRC, marked broken
                               upstream, fitting no map; malformed frames; "Decode As" and prefs.
-  generator_fixtures          codegen's fixtures: every field type, arrays, text (some of it not
+  generator_fixtures          the dictionary crate's fixtures: every field type, arrays, text (some of it not
                               UTF-8), keyword names, gaps, several maps and dictionaries at once.
   no_lua_errors               Mutated and random packets for every protocol and link, one and
                               two passes.
@@ -1096,8 +1096,8 @@ COMMAND_NAMES = {v: k for k, v in COMMAND.items()}
 
 # --- the generator's test fixtures: every field type, keyword names, arrays, text, gaps ---------
 
-FIXTURES = sorted(glob.glob(os.path.join(ROOT, "codegen", "tests", "fixtures", "ok", "*.xml"))
-                  + glob.glob(os.path.join(ROOT, "codegen", "tests", "fixtures", "ok", "*.toml")))
+FIXTURES = sorted(glob.glob(os.path.join(ROOT, "dictionary", "tests", "fixtures", "ok", "*.xml"))
+                  + glob.glob(os.path.join(ROOT, "dictionary", "tests", "fixtures", "ok", "*.toml")))
 
 
 def fixture_frames(env, rng):
