@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
-# Runs every fuzz target (or those named) for SECONDS each, starting from the seed corpus in
-# seeds/TARGET and the corpus kept in corpus/TARGET, and fails if any target crashes.
+# Runs every fuzz target (or those named) for SECONDS each, starting from the committed corpus
+# in corpora/TARGET and the hand-written seeds in seeds/TARGET, and fails if any target crashes.
+# New inputs land in corpus/TARGET (not committed), so the committed corpora only change when
+# they are refreshed on purpose (FUZZ_MERGE=1, see README.md).
 #
 #   bash fuzz/run-all.sh [SECONDS] [TARGET...]      # SECONDS defaults to 30
-#   FUZZ_JOBS=2 bash fuzz/run-all.sh 600            # a release campaign, two targets at a time
+#   FUZZ_JOBS=2 bash fuzz/run-all.sh 1200           # a campaign: 20 min each, two at a time
+#   FUZZ_MERGE=1 bash fuzz/run-all.sh 0             # minimize corpus/ + corpora/ into corpora/
 #
-# Needs a nightly toolchain and cargo-fuzz. Prints a table: runs, coverage (edges), features,
-# corpus size and the result per target; crash inputs land in artifacts/TARGET/.
+# Needs a nightly toolchain and cargo-fuzz. The targets are built once, then their binaries run
+# directly, so editing the sources during a campaign changes nothing. Prints a table: runs,
+# coverage (edges), features, corpus size and the result per target; crash inputs land in
+# artifacts/TARGET/.
 set -euo pipefail
 cd "$(dirname "$0")"
 seconds=${1:-30}
@@ -18,30 +23,50 @@ else
 fi
 jobs=${FUZZ_JOBS:-1}
 mkdir -p logs
-echo "== building ${#targets[@]} fuzz target(s)"
-cargo +nightly fuzz build -O >/dev/null
+if [ -z "${FUZZ_NO_BUILD:-}" ]; then
+  echo "== building ${#targets[@]} fuzz target(s)"
+  cargo +nightly fuzz build -O >/dev/null
+fi
+bin_dir=$(pwd)/target/$(rustc +nightly -vV | sed -n 's/^host: //p')/release
+export bin_dir
 
 run_one() {
   local target=$1 seconds=$2
-  mkdir -p "corpus/$target"
+  mkdir -p "corpus/$target" "artifacts/$target"
   local dirs=("corpus/$target")
+  [ -d "corpora/$target" ] && dirs+=("corpora/$target")
   [ -d "seeds/$target" ] && dirs+=("seeds/$target")
-  if cargo +nightly fuzz run -O "$target" "${dirs[@]}" -- \
-      -max_total_time="$seconds" -print_final_stats=1 >"logs/$target.log" 2>&1; then
-    echo "ok" >"logs/$target.result"
-  else
+  if [ "$seconds" -gt 0 ] && ! "$bin_dir/$target" -max_total_time="$seconds" -print_final_stats=1 \
+      -artifact_prefix="artifacts/$target/" "${dirs[@]}" >"logs/$target.log" 2>&1; then
     echo "CRASH" >"logs/$target.result"
+    return
   fi
+  [ "$seconds" -gt 0 ] || : >"logs/$target.log"
+  echo "ok" >"logs/$target.result"
 }
 export -f run_one
 printf '%s\n' "${targets[@]}" | xargs -P "$jobs" -I{} bash -c "run_one {} $seconds"
+
+if [ -n "${FUZZ_MERGE:-}" ]; then
+  # What `cargo fuzz cmin` does, over the campaign's finds and the committed corpus together.
+  for t in "${targets[@]}"; do
+    fresh=$(mktemp -d)
+    dirs=()
+    for d in "corpora/$t" "corpus/$t"; do [ -d "$d" ] && dirs+=("$d"); done
+    "$bin_dir/$t" -merge=1 "$fresh" "${dirs[@]}" >"logs/$t.merge.log" 2>&1
+    rm -rf "corpora/$t"
+    mkdir -p corpora
+    mv "$fresh" "corpora/$t"
+    echo "$t: $(ls "corpora/$t" | wc -l) inputs, $(du -sk "corpora/$t" | cut -f1) KiB in corpora/$t"
+  done
+fi
 
 failed=0
 printf '\n%-18s %12s %8s %8s %8s  %s\n' target runs cov ft corpus result
 for t in "${targets[@]}"; do
   log="logs/$t.log"
-  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1)
-  line=$(grep -E '^#[0-9]+' "$log" | grep -E 'cov: [0-9]+' | tail -1)
+  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' | tail -1 || true)
+  line=$(grep -E '^#[0-9]+' "$log" | grep -E 'cov: [0-9]+' | tail -1 || true)
   cov=$(grep -o 'cov: [0-9]*' <<<"$line" | grep -o '[0-9]*' || true)
   ft=$(grep -o 'ft: [0-9]*' <<<"$line" | grep -o '[0-9]*' || true)
   corpus=$(grep -o 'corp: [0-9]*' <<<"$line" | grep -o '[0-9]*' || true)

@@ -7,6 +7,7 @@ mod mavlink;
 mod mavlink_stats;
 mod modrob;
 mod ndlcom;
+mod schemes;
 mod tosnet;
 
 use std::path::PathBuf;

@@ -8,7 +8,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use clap::Subcommand;
-use ferrolink_io::link::Endpoint;
+use ferrolink_io::uri::Target;
+
+use crate::schemes::{Extra, EXTENSIONS};
 use ferrolink_io::mavlink::config::{self, EndpointConfig, FileConfig};
 use ferrolink_io::mavlink::{router, tlog};
 
@@ -105,10 +107,10 @@ pub enum Command {
 /// The router's `zenoh://` endpoints.
 #[cfg(feature = "zenoh")]
 fn zenoh_endpoints(
-    uris: &[&str],
+    uris: Vec<Extra>,
     dialects: Dialects,
 ) -> Result<Vec<router::Attached>, Box<dyn std::error::Error>> {
-    use ferrolink_zenoh::{mavlink, ZenohUri};
+    use ferrolink_zenoh::mavlink;
     if uris.is_empty() {
         return Ok(Vec::new());
     }
@@ -119,28 +121,18 @@ fn zenoh_endpoints(
         table: dialects.table,
         decoder,
     };
-    uris.iter()
-        .map(|uri| Ok(mavlink::attached(uri.parse::<ZenohUri>()?, dictionaries)))
-        .collect()
+    Ok(uris
+        .into_iter()
+        .map(|uri| mavlink::attached(uri, dictionaries))
+        .collect())
 }
 
 #[cfg(not(feature = "zenoh"))]
 fn zenoh_endpoints(
-    uris: &[&str],
+    uris: Vec<Extra>,
     _: Dialects,
 ) -> Result<Vec<router::Attached>, Box<dyn std::error::Error>> {
-    match uris.first() {
-        None => Ok(Vec::new()),
-        Some(uri) => Err(without_zenoh(uri).into()),
-    }
-}
-
-#[cfg(not(feature = "zenoh"))]
-pub fn without_zenoh(uri: &str) -> String {
-    format!(
-        "{uri}: this ferrolink was built without Zenoh\n  hint: build it with the default features \
-         (cargo build --release -p ferrolink-cli)"
-    )
+    Ok(uris.into_iter().map(|never| match never {}).collect())
 }
 
 /// `ferrolink mavlink fleet`.
@@ -185,7 +177,7 @@ fn fleet(uri: &str, timeout: Duration, json: bool) -> Result<ExitCode, Box<dyn s
 
 #[cfg(not(feature = "zenoh"))]
 fn fleet(uri: &str, _: Duration, _: bool) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    Err(without_zenoh(uri).into())
+    Err(crate::schemes::without_zenoh(uri).into())
 }
 
 /// The default `--peer-expiry`, in seconds.
@@ -215,17 +207,18 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             let mut all = file.endpoints;
             let mut zenoh = Vec::new();
             for uri in &endpoints {
-                if uri.starts_with("zenoh:") {
-                    zenoh.push(uri.as_str());
-                    continue;
+                match ferrolink_io::mavlink::ENDPOINTS.parse_with(uri, EXTENSIONS)? {
+                    Target::Link(endpoint, _) => {
+                        let mut endpoint = EndpointConfig::new(endpoint);
+                        endpoint.link.dedup_window_us = dedup_ms.saturating_mul(1000);
+                        all.push(endpoint);
+                    }
+                    Target::Other(uri) => zenoh.push(uri),
                 }
-                let mut endpoint = EndpointConfig::new(uri.parse::<Endpoint>()?);
-                endpoint.link.dedup_window_us = dedup_ms.saturating_mul(1000);
-                all.push(endpoint);
             }
             let dialects = Dialects::load(&[file.dialects, dialect].concat())?;
             let table = dialects.table;
-            let attached = zenoh_endpoints(&zenoh, dialects)?;
+            let attached = zenoh_endpoints(zenoh, dialects)?;
             let config = router::Config {
                 endpoints: all,
                 table,

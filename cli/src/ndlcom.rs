@@ -9,6 +9,8 @@ use clap::Subcommand;
 use ferrolink_runtime::ndlcom::{self, parser::Parser, Header};
 use serde::{Deserialize, Serialize};
 
+use crate::schemes::{Extra, EXTENSIONS};
+
 #[derive(Subcommand)]
 pub enum Command {
     /// Encode frames: reads JSON lines `{"receiver":1,"sender":2,"counter":3,"payload":"<hex>"}`
@@ -81,7 +83,7 @@ pub struct Links {
     uris: Vec<UriArg>,
     /// A mirror interface: it gets every frame and teaches the routing table nothing.
     #[arg(short = 'm', long = "mirror", value_name = "URI")]
-    mirrors: Vec<ferrolink_io::Interface>,
+    mirrors: Vec<ferrolink_io::ndlcom::Interface>,
     /// Print statistics, routes and missed packets every this many seconds.
     #[arg(long, value_name = "SECONDS")]
     stats: Option<f64>,
@@ -111,15 +113,17 @@ fn seconds(s: Option<f64>) -> Result<Option<std::time::Duration>, String> {
 /// An interface: one the link layer opens, or a Zenoh one.
 #[derive(Clone)]
 enum UriArg {
-    Link(ferrolink_io::Interface),
-    Zenoh(String),
+    Link(ferrolink_io::ndlcom::Interface),
+    Zenoh(Extra),
 }
 
-fn parse_uri(uri: &str) -> Result<UriArg, String> {
-    if uri.starts_with("zenoh:") {
-        return Ok(UriArg::Zenoh(uri.to_owned()));
-    }
-    uri.parse().map(UriArg::Link).map_err(|e| e.to_string())
+fn parse_uri(uri: &str) -> Result<UriArg, ferrolink_io::uri::UriError> {
+    use ferrolink_io::ndlcom::{Interface, ENDPOINTS};
+    use ferrolink_io::uri::Target;
+    Ok(match ENDPOINTS.parse_with(uri, EXTENSIONS)? {
+        Target::Link(endpoint, routes) => UriArg::Link(Interface { endpoint, routes }),
+        Target::Other(uri) => UriArg::Zenoh(uri),
+    })
 }
 
 impl Links {
@@ -128,8 +132,8 @@ impl Links {
         self,
     ) -> Result<
         (
-            ferrolink_io::bridge::Config,
-            Vec<ferrolink_io::bridge::Attached>,
+            ferrolink_io::ndlcom::bridge::Config,
+            Vec<ferrolink_io::ndlcom::bridge::Attached>,
         ),
         String,
     > {
@@ -142,8 +146,8 @@ impl Links {
         }
         let dialects = crate::dialect::Dialects::own()?;
         let messages = dialects.table;
-        let attached = zenoh_interfaces(&zenoh, dialects)?;
-        let config = ferrolink_io::bridge::Config {
+        let attached = zenoh_interfaces(zenoh, dialects)?;
+        let config = ferrolink_io::ndlcom::bridge::Config {
             interfaces,
             mirrors: self.mirrors,
             stats_every: seconds(self.stats)?,
@@ -160,32 +164,27 @@ impl Links {
 /// The bridge's Zenoh interfaces, their payloads named and written as JSON with `dialects`.
 #[cfg(feature = "zenoh")]
 fn zenoh_interfaces(
-    uris: &[String],
+    uris: Vec<Extra>,
     dialects: crate::dialect::Dialects,
-) -> Result<Vec<ferrolink_io::bridge::Attached>, String> {
+) -> Result<Vec<ferrolink_io::ndlcom::bridge::Attached>, String> {
     if uris.is_empty() {
         return Ok(Vec::new());
     }
     // The interface's threads live as long as the process; so do the dictionaries.
     let ir: &'static ferrolink_dictionary::ir::Ir = Box::leak(Box::new(dialects.ir));
     let decoder = Box::leak(Box::new(ferrolink_traffic::PayloadDecoder::new(ir)));
-    uris.iter()
-        .map(|uri| {
-            let uri: ferrolink_zenoh::ZenohUri = uri.parse().map_err(|e| format!("{e}"))?;
-            Ok(ferrolink_zenoh::ndlcom::attached(uri, decoder))
-        })
-        .collect()
+    Ok(uris
+        .into_iter()
+        .map(|uri| ferrolink_zenoh::ndlcom::attached(uri, decoder))
+        .collect())
 }
 
 #[cfg(not(feature = "zenoh"))]
 fn zenoh_interfaces(
-    uris: &[String],
+    uris: Vec<Extra>,
     _: crate::dialect::Dialects,
-) -> Result<Vec<ferrolink_io::bridge::Attached>, String> {
-    match uris.first() {
-        None => Ok(Vec::new()),
-        Some(uri) => Err(crate::mavlink::without_zenoh(uri)),
-    }
+) -> Result<Vec<ferrolink_io::ndlcom::bridge::Attached>, String> {
+    Ok(uris.into_iter().map(|never| match never {}).collect())
 }
 
 /// One frame in the JSON form of `encode` and `decode`.
@@ -226,30 +225,30 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             log,
         } => {
             let (config, attached) = links.config()?;
-            let config = ferrolink_io::bridge::Config {
+            let config = ferrolink_io::ndlcom::bridge::Config {
                 own_ids,
                 cut_through,
                 print: match print {
-                    PrintArg::All => ferrolink_io::bridge::Print::All,
-                    PrintArg::Own => ferrolink_io::bridge::Print::Own,
-                    PrintArg::None => ferrolink_io::bridge::Print::None,
+                    PrintArg::All => ferrolink_io::ndlcom::bridge::Print::All,
+                    PrintArg::Own => ferrolink_io::ndlcom::bridge::Print::Own,
+                    PrintArg::None => ferrolink_io::ndlcom::bridge::Print::None,
                 },
                 ping,
                 ping_every: seconds(Some(ping_every))?.unwrap_or_default(),
                 log,
                 ..config
             };
-            ferrolink_io::bridge::run(config, attached)?;
+            ferrolink_io::ndlcom::bridge::run(config, attached)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Log { links, out } => {
             let (config, attached) = links.config()?;
-            let config = ferrolink_io::bridge::Config {
+            let config = ferrolink_io::ndlcom::bridge::Config {
                 log: Some(out),
                 log_only: true,
                 ..config
             };
-            ferrolink_io::bridge::run(config, attached)?;
+            ferrolink_io::ndlcom::bridge::run(config, attached)?;
             Ok(ExitCode::SUCCESS)
         }
     }

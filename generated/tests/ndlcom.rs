@@ -107,7 +107,7 @@ proptest! {
 fn bridge_ping_is_the_generated_ping() {
     use ferrolink_runtime::mavlink::{Message, PayloadBuf};
     type Ours = ferrolink_generated::mavlink::minimal::Ping;
-    type Bridge = ferrolink_io::bridge::Ping;
+    type Bridge = ferrolink_io::ndlcom::bridge::Ping;
     assert_eq!(
         (Ours::ID, Ours::CRC_EXTRA, Ours::MIN_LEN, Ours::MAX_LEN),
         (

@@ -2,32 +2,27 @@
 //!
 //! - [`mavlink`]: connections from URIs (blocking, or async with the `tokio` feature),
 //!   telemetry logs, router configuration files and the router daemon.
-//! - [`bridge`]: the NDLCom bridge program; every TCP client of an interface is an interface of
+//! - [`ndlcom`]: the NDLCom bridge program; every TCP client of an interface is an interface of
 //!   its own.
 //! - [`tosnet`] and [`modrob`]: TosNet rings and ModRob-1 networks, simulated and over UDP.
 //!
 //! All of them open their sockets, devices and pseudo-terminals through one link layer,
-//! [`link`]. NDLCom interfaces are named by the URI forms of the C reference implementation
-//! ([`Interface`]), which map onto it.
+//! [`link`], named by URIs of one grammar, [`uri`], in which each protocol declares its
+//! schemes and defaults (NDLCom keeps the forms of its C reference implementation).
 
 #![warn(missing_docs)]
 
 use std::io;
 use std::time::Duration;
 
-pub mod bridge;
 pub mod link;
 pub mod mavlink;
 pub mod modrob;
+pub mod ndlcom;
 mod serial;
 mod tcp;
 pub mod tosnet;
-mod uri;
-
-pub use uri::{
-    Interface, Transport, UriError, DEFAULT_BAUD, DEFAULT_LISTEN_HOST, DEFAULT_TCP_PORT,
-    DEFAULT_UDP_IN_PORT, DEFAULT_UDP_OUT_PORT,
-};
+pub mod uri;
 
 /// How long a write to a TCP peer, a serial device or a pty may block before it is given up, so
 /// that one stalled peer cannot hold up a router or bridge.

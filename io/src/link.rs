@@ -9,7 +9,7 @@
 //! it), [`Event::Rx`] for every read, [`Event::Down`] when it goes away. Peers are numbered by
 //! [`PeerId`], never reused.
 //!
-//! | URI | peers | |
+//! | endpoint, as [`Display`](fmt::Display) writes it | peers | |
 //! |-----|-------|-|
 //! | `udpin://HOST:PORT` | each address that sends to the bound socket | a peer quiet for the expiry (10 s by default) is reported down |
 //! | `udpout://HOST:PORT` | the one address | sent to from an ephemeral port; replies to that port are read |
@@ -19,10 +19,10 @@
 //! | `serial://PATH[:BAUD]` | the device | reopened every second after it fails or is unplugged |
 //! | `pty://NAME` | the program attached to the pseudo-terminal linked at `NAME` | created at open, removed once the endpoint and its senders are dropped |
 //!
-//! The spellings of pymavlink and rust-mavlink are accepted as well, so a user can paste what
-//! they know: `udpin:0.0.0.0:14550`, `udpout:HOST:PORT`, `udp:HOST:PORT` (= udpin),
-//! `udpbcast:HOST:PORT` (= udpout), `tcp:HOST:PORT` (= tcpout), `tcpin:HOST:PORT`,
-//! `serial:/dev/ttyUSB0:57600`, a bare device path (`/dev/ttyACM0[,BAUD]` or `COM3`).
+//! Users name endpoints in their protocol's spelling: [`uri`](crate::uri) holds the one grammar,
+//! and each protocol declares its schemes and defaults there
+//! ([`mavlink::ENDPOINTS`](crate::mavlink::ENDPOINTS),
+//! [`ndlcom::ENDPOINTS`](crate::ndlcom::ENDPOINTS)).
 //!
 //! A UDP endpoint also sends to any address from its bound socket ([`Handle::sender_to`]), for
 //! protocols that fan out to a list of addresses on a shared medium (ModRob's Ethernet-1) or
@@ -41,14 +41,11 @@ use std::io;
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, UdpSocket};
 
 use crate::{is_timeout, LinkReader, LinkWriter};
-use std::str::FromStr;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread;
 use std::time::{Duration, Instant};
 
-/// Baud rate of a serial URI without one.
-pub const DEFAULT_BAUD: u32 = 57_600;
 /// How long a `udpin` peer may be quiet before it is reported down.
 pub const DEFAULT_PEER_EXPIRY: Duration = Duration::from_secs(10);
 /// The longest wait between `tcpout` connection attempts.
@@ -56,7 +53,8 @@ pub const MAX_BACKOFF: Duration = Duration::from_secs(1);
 /// How often readers look up from a blocking read to notice a shutdown.
 const POLL: Duration = Duration::from_millis(200);
 
-/// A MAVLink-style endpoint URI.
+/// Where a link goes: what a URI names, parsed by a protocol's [`Grammar`](crate::uri::Grammar).
+/// `Display` writes the link layer's own spelling (MAVLink's, with NDLCom's `udp://` pair).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Endpoint {
     /// `udpin://HOST:PORT`: listen; every sender is a peer.
@@ -76,116 +74,6 @@ pub enum Endpoint {
     /// `pty://NAME`: a pseudo-terminal whose other end is linked at `NAME`, for programs that
     /// expect a serial device.
     Pty(String),
-}
-
-/// Why an endpoint URI did not parse; the text names the URI and lists the accepted forms.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct UriError(String);
-
-impl fmt::Display for UriError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}\n  hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, \
-             tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME; pymavlink spellings (udpin:HOST:PORT, \
-             tcp:HOST:PORT, serial:PATH:BAUD) work too",
-            self.0
-        )
-    }
-}
-
-impl std::error::Error for UriError {}
-
-impl FromStr for Endpoint {
-    type Err = UriError;
-
-    fn from_str(uri: &str) -> Result<Self, UriError> {
-        let bad = |what: &str| UriError(format!("{what} in {uri:?}"));
-        let (scheme, rest) = match uri.split_once("://") {
-            Some(split) => split,
-            None => match uri.split_once(':') {
-                Some((scheme, rest)) if scheme.bytes().all(|b| b.is_ascii_alphabetic()) => {
-                    if scheme.len() == 1 {
-                        // A Windows drive letter: `C:...` is no scheme.
-                        ("serial", uri)
-                    } else {
-                        (scheme, rest)
-                    }
-                }
-                _ if uri.starts_with('/') || uri.starts_with("COM") => ("serial", uri),
-                _ => return Err(bad("missing scheme")),
-            },
-        };
-        let host_port = |rest: &str| -> Result<(String, u16), UriError> {
-            let (host, port) = rest.rsplit_once(':').ok_or_else(|| bad("missing :PORT"))?;
-            let host = host
-                .strip_prefix('[')
-                .and_then(|h| h.strip_suffix(']'))
-                .unwrap_or(host);
-            if host.is_empty() {
-                return Err(bad("missing host"));
-            }
-            if !is_host(host) {
-                return Err(bad(&format!("bad host {host:?}")));
-            }
-            let port = port
-                .parse::<u16>()
-                .ok()
-                .filter(|_| port.bytes().all(|b| b.is_ascii_digit()))
-                .ok_or_else(|| bad(&format!("bad port {port:?}")))?;
-            Ok((host.to_owned(), port))
-        };
-        Ok(match scheme {
-            "udpin" | "udp" => {
-                let (h, p) = host_port(rest)?;
-                Endpoint::UdpIn(h, p)
-            }
-            "udpout" | "udpbcast" => {
-                let (h, p) = host_port(rest)?;
-                Endpoint::UdpOut(h, p)
-            }
-            "tcpin" => {
-                let (h, p) = host_port(rest)?;
-                Endpoint::TcpIn(h, p)
-            }
-            "tcpout" | "tcp" => {
-                let (h, p) = host_port(rest)?;
-                Endpoint::TcpOut(h, p)
-            }
-            "pty" if !rest.is_empty() => Endpoint::Pty(rest.to_owned()),
-            "serial" => {
-                // `PATH:BAUD` or `PATH,BAUD`; any other ':' belongs to the path.
-                let split = rest
-                    .rsplit_once(':')
-                    .or_else(|| rest.rsplit_once(','))
-                    .filter(|(_, b)| !b.is_empty() && b.bytes().all(|c| c.is_ascii_digit()));
-                let (path, baud) = match split {
-                    Some((path, baud)) => (
-                        path,
-                        baud.parse::<u32>()
-                            .ok()
-                            .filter(|&b| b > 0)
-                            .ok_or_else(|| bad(&format!("bad baud rate {baud:?}")))?,
-                    ),
-                    None => (rest, DEFAULT_BAUD),
-                };
-                if path.is_empty() {
-                    return Err(bad("missing device path"));
-                }
-                Endpoint::Serial(path.to_owned(), baud)
-            }
-            other => return Err(bad(&format!("unknown scheme {other:?}"))),
-        })
-    }
-}
-
-/// Whether `host` can stand in a URI: a name or an address (IPv6 colons allowed), without
-/// spaces, control characters or URI punctuation.
-pub fn is_host(host: &str) -> bool {
-    !host.is_empty()
-        && !host
-            .chars()
-            .any(|c| c.is_whitespace() || c.is_control() || "/[]@?#&,".contains(c))
 }
 
 impl fmt::Display for Endpoint {

@@ -1,331 +1,615 @@
-//! NDLCom interface URIs: parsing ([`Interface::from_str`]), the canonical form
-//! ([`fmt::Display`]) and the [`link`](crate::link) endpoint each one opens ([`Interface::link`]).
+//! The one URI grammar of every link, for every protocol.
 //!
-//! An NDLCom interface is named by a URI, the same forms the C reference implementation takes.
+//! A protocol declares the endpoints it accepts as a [`Grammar`]: its schemes, each with a
+//! [`Form`] and that protocol's defaults (a serial speed, default ports), whether an
+//! `&ID,ID,...` route list may follow, and whether the pymavlink spellings without `//` are
+//! accepted. [`mavlink::ENDPOINTS`](crate::mavlink::ENDPOINTS) and
+//! [`ndlcom::ENDPOINTS`](crate::ndlcom::ENDPOINTS) are the two in this crate. Parsing gives a
+//! link-layer [`Endpoint`]; writing an endpoint back gives the protocol's canonical spelling,
+//! which parses to the same endpoint.
 //!
-//! | URI | opens | defaults |
-//! |-----|-------|----------|
-//! | `serial://PATH[:BAUD]` | serial device, 8N1, no flow control, locked while open; reopened every second after it fails or is unplugged | baud 921600 |
-//! | `udp://HOST[:IN_PORT][:OUT_PORT]` | UDP socket bound to `IN_PORT` on the unspecified address of `HOST`'s family, sending to `HOST:OUT_PORT`, reading datagrams from any sender | in 34000, out 34001 |
-//! | `tcp://HOST[:PORT]` | TCP client that reconnects (backoff from 50 ms doubling to 1 s) | port 34000 |
-//! | `tcp-listen://[HOST]:PORT` | TCP server; every client is an interface of its own | host 0.0.0.0 |
-//! | `pty://NAME` | pseudo-terminal in raw mode; a symlink at `NAME` points to its slave device | — |
+//! A crate that provides a link of its own registers its scheme as an [`Extension`] (the Zenoh
+//! crate's `zenoh://` is one): [`Grammar::parse_with`] hands such URIs to it, and its forms join
+//! the hint of every error.
 //!
-//! Any URI may end with `&ID,ID,...`: NDLCom device ids (decimal or `0x` hex) that sit behind
-//! the interface, for the router to pre-seed ([`Interface::routes`]). Examples:
-//! `serial:///dev/ttyUSB0:115200`, `udp://127.0.0.1:34000:34001&3,4`, `udp://[::1]:5000:5001`,
-//! `tcp-listen://:34000`, `pty:///tmp/ndlcom0&0x10`.
+//! Every error is a [`UriError`]: what is wrong, where in the URI (a byte offset, shown with a
+//! caret), and a hint listing the accepted forms.
 //!
 //! ```
-//! use ferrolink_io::{link, Interface, Transport};
+//! use ferrolink_io::{link::Endpoint, mavlink, ndlcom};
 //!
-//! let interface: Interface = "udp://127.0.0.1&3,0x04".parse()?;
-//! assert_eq!(
-//!     interface.transport,
-//!     Transport::Udp { host: "127.0.0.1".into(), in_port: 34000, out_port: 34001 }
-//! );
-//! assert_eq!(interface.routes, [3, 4]);
-//! assert_eq!(interface.to_string(), "udp://127.0.0.1:34000:34001&3,4");
-//! assert_eq!(interface.link(), link::Endpoint::Udp("127.0.0.1".into(), 34000, 34001));
-//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! // The same scheme means what each protocol's users expect.
+//! assert_eq!(mavlink::ENDPOINTS.endpoint("udp:0.0.0.0:14550")?, Endpoint::UdpIn("0.0.0.0".into(), 14550));
+//! let (endpoint, routes) = ndlcom::ENDPOINTS.parse("udp://robot&3")?;
+//! assert_eq!(endpoint, Endpoint::Udp("robot".into(), 34000, 34001));
+//! assert_eq!(routes, [3]);
+//!
+//! let err = ndlcom::ENDPOINTS.parse("udp://robot:x").unwrap_err();
+//! assert_eq!((err.message(), err.at()), ("bad port \"x\": expected 0..=65535", 12));
+//! # Ok::<(), ferrolink_io::uri::UriError>(())
 //! ```
-//!
-//! Details per transport:
-//! - **serial**: a trailing `:DIGITS` is the baud rate, any other `:` belongs to the path, so
-//!   `/dev/serial/by-path/...:1.0-port0` works as is. The device is locked against other
-//!   openers (they get "busy") while it is open.
-//! - **udp**: each write is one datagram, each read one datagram. An empty port field keeps
-//!   the default: `udp://host::5001`.
-//! - **tcp** and **tcp-listen**: `TCP_NODELAY` is set; a client that does not read for 100 ms
-//!   loses the write.
-//! - **pty**: both ends of the pair stay open, so reads never fail because nobody is attached.
-//!   Another program attaches through the symlink (`picocom NAME`, or `serial://NAME` in a
-//!   second bridge). An existing symlink at `NAME` (left over from an earlier run) is replaced;
-//!   any other file there is an error. The symlink is removed when the endpoint closes.
 
 use std::fmt;
-use std::str::FromStr;
 
-/// Baud rate of `serial://` links that do not name one.
-pub const DEFAULT_BAUD: u32 = 921_600;
-/// Local port a `udp://` link binds when the URI does not name one.
-pub const DEFAULT_UDP_IN_PORT: u16 = 34000;
-/// Remote port a `udp://` link sends to when the URI does not name one.
-pub const DEFAULT_UDP_OUT_PORT: u16 = 34001;
-/// Port a `tcp://` client connects to when the URI does not name one.
-pub const DEFAULT_TCP_PORT: u16 = 34000;
-/// Address a `tcp-listen://` link listens on when the URI does not name one.
-pub const DEFAULT_LISTEN_HOST: &str = "0.0.0.0";
+use crate::link::Endpoint;
 
-/// The accepted URI forms, appended to every parse error.
-const FORMS: &str = "accepted forms: serial://PATH[:BAUD], udp://HOST[:IN_PORT][:OUT_PORT], \
-                     tcp://HOST[:PORT], tcp-listen://[HOST]:PORT, pty://NAME; \
-                     each may end with &ID,ID,... (route ids, decimal or 0x-hex)";
-
-/// A parsed interface URI plus the routes to pre-seed.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Interface {
-    /// How the link is opened.
-    pub transport: Transport,
-    /// NDLCom device ids known to sit behind this interface, from the `&id,id,...` suffix.
-    pub routes: Vec<u8>,
-}
-
-/// The transport part of an interface URI, with every default filled in.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Transport {
-    /// `serial://PATH[:BAUD]`: a serial device, 8N1, no flow control.
-    Serial {
-        /// Device path, e.g. `/dev/ttyUSB0`.
-        path: String,
-        /// Baud rate.
-        baud: u32,
-    },
-    /// `udp://HOST[:IN_PORT][:OUT_PORT]`: datagrams received on local `in_port`, sent to
-    /// `host:out_port`.
-    Udp {
-        /// Peer host name or address (IPv6 without brackets).
-        host: String,
-        /// Local port to bind.
-        in_port: u16,
-        /// Peer port to send to.
-        out_port: u16,
-    },
-    /// `tcp://HOST[:PORT]`: a TCP client that reconnects.
-    Tcp {
-        /// Server host name or address (IPv6 without brackets).
-        host: String,
-        /// Server port.
-        port: u16,
-    },
-    /// `tcp-listen://[HOST]:PORT`: a TCP server; every client is an interface of its own.
-    TcpListen {
-        /// Local address to listen on (IPv6 without brackets).
-        host: String,
-        /// Local port to listen on.
-        port: u16,
-    },
-    /// `pty://NAME`: a pseudo-terminal whose slave device is linked at path `name`.
-    Pty {
-        /// Where to create the symlink to the slave device.
-        name: String,
-    },
-}
-
-/// Why an interface URI did not parse. The message names the offending part and the URI, and
-/// the [`Display`](fmt::Display) form adds a hint listing the accepted forms.
+/// Why a URI did not parse: a message, the byte offset in the URI it is about, and a hint.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct UriError {
+    uri: String,
+    at: usize,
     message: String,
+    hint: String,
 }
 
 impl UriError {
-    fn new(message: impl Into<String>) -> Self {
+    /// An error about the part of `uri` that starts at byte `at`.
+    pub fn new(uri: &str, at: usize, message: impl Into<String>) -> Self {
         UriError {
+            uri: uri.to_owned(),
+            at: at.min(uri.len()),
             message: message.into(),
+            hint: String::new(),
         }
     }
 
-    /// The message without the hint.
+    /// An error about `part`, a slice of `uri`.
+    pub fn at_part(uri: &str, part: &str, message: impl Into<String>) -> Self {
+        UriError::new(uri, offset(uri, part), message)
+    }
+
+    /// The same error with a hint (kept if it already has one).
+    pub fn with_hint(mut self, hint: impl Into<String>) -> Self {
+        if self.hint.is_empty() {
+            self.hint = hint.into();
+        }
+        self
+    }
+
+    /// What is wrong, without the URI or the hint.
     pub fn message(&self) -> &str {
         &self.message
+    }
+
+    /// The byte offset in the URI of the part the message is about.
+    pub fn at(&self) -> usize {
+        self.at
+    }
+
+    /// The URI.
+    pub fn uri(&self) -> &str {
+        &self.uri
+    }
+
+    /// The accepted forms.
+    pub fn hint(&self) -> &str {
+        &self.hint
     }
 }
 
 impl fmt::Display for UriError {
+    /// The message, the URI with a caret under the offending part, and the hint.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}\n  hint: {FORMS}", self.message)
+        let column = self.uri.get(..self.at).map_or(0, |s| s.chars().count());
+        write!(
+            f,
+            "{}\n  {}\n  {:column$}^",
+            self.message,
+            self.uri.escape_debug(),
+            ""
+        )?;
+        if !self.hint.is_empty() {
+            write!(f, "\n  hint: {}", self.hint)?;
+        }
+        Ok(())
     }
 }
 
 impl std::error::Error for UriError {}
 
-impl FromStr for Interface {
-    type Err = UriError;
+/// The byte offset of `part` in `whole`, for a `part` sliced from `whole` (0 otherwise).
+pub fn offset(whole: &str, part: &str) -> usize {
+    let (start, at) = (whole.as_ptr() as usize, part.as_ptr() as usize);
+    if (start..=start + whole.len()).contains(&at) {
+        at - start
+    } else {
+        0
+    }
+}
 
-    fn from_str(uri: &str) -> Result<Self, UriError> {
-        let (body, routes) = match uri.split_once('&') {
+/// What follows `SCHEME://`, and the protocol's defaults for it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Form {
+    /// `HOST:PORT`, bound; every sender is a peer ([`Endpoint::UdpIn`]).
+    UdpIn,
+    /// `HOST:PORT`, sent to from an ephemeral port ([`Endpoint::UdpOut`]).
+    UdpOut,
+    /// `HOST[:IN_PORT][:OUT_PORT]`: bind `IN_PORT`, send to `HOST:OUT_PORT`
+    /// ([`Endpoint::Udp`]).
+    UdpPair {
+        /// `IN_PORT` when not given.
+        in_port: u16,
+        /// `OUT_PORT` when not given.
+        out_port: u16,
+    },
+    /// `HOST:PORT`, or `[HOST]:PORT` with a default host: a TCP server ([`Endpoint::TcpIn`]).
+    TcpIn {
+        /// The host when not given; `None` makes it required.
+        host: Option<&'static str>,
+    },
+    /// `HOST:PORT`, or `HOST[:PORT]` with a default port: a TCP client ([`Endpoint::TcpOut`]).
+    TcpOut {
+        /// The port when not given; `None` makes it required.
+        port: Option<u16>,
+    },
+    /// `PATH[:BAUD]`: a serial device ([`Endpoint::Serial`]). A trailing `:DIGITS` is the
+    /// speed, any other `:` belongs to the path.
+    Serial {
+        /// The speed when not given.
+        baud: u32,
+    },
+    /// `NAME`: a pseudo-terminal linked at `NAME` ([`Endpoint::Pty`]).
+    Pty,
+}
+
+impl Form {
+    fn usage(self) -> &'static str {
+        match self {
+            Form::UdpIn
+            | Form::UdpOut
+            | Form::TcpIn { host: None }
+            | Form::TcpOut { port: None } => "HOST:PORT",
+            Form::UdpPair { .. } => "HOST[:IN_PORT][:OUT_PORT]",
+            Form::TcpIn { host: Some(_) } => "[HOST]:PORT",
+            Form::TcpOut { port: Some(_) } => "HOST[:PORT]",
+            Form::Serial { .. } => "PATH[:BAUD]",
+            Form::Pty => "NAME",
+        }
+    }
+
+    /// Whether `endpoint` is of this form.
+    fn opens(self, endpoint: &Endpoint) -> bool {
+        matches!(
+            (self, endpoint),
+            (Form::UdpIn, Endpoint::UdpIn(..))
+                | (Form::UdpOut, Endpoint::UdpOut(..))
+                | (Form::UdpPair { .. }, Endpoint::Udp(..))
+                | (Form::TcpIn { .. }, Endpoint::TcpIn(..))
+                | (Form::TcpOut { .. }, Endpoint::TcpOut(..))
+                | (Form::Serial { .. }, Endpoint::Serial(..))
+                | (Form::Pty, Endpoint::Pty(..))
+        )
+    }
+}
+
+/// One scheme of a [`Grammar`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Scheme {
+    /// The name before `://`.
+    pub name: &'static str,
+    /// What follows it.
+    pub form: Form,
+    /// Another spelling of an earlier scheme: accepted, but neither listed in hints nor written.
+    pub alias: bool,
+}
+
+impl Scheme {
+    /// A scheme that is listed and written.
+    pub const fn new(name: &'static str, form: Form) -> Self {
+        Scheme {
+            name,
+            form,
+            alias: false,
+        }
+    }
+
+    /// Another spelling of an earlier scheme.
+    pub const fn alias(name: &'static str, form: Form) -> Self {
+        Scheme {
+            name,
+            form,
+            alias: true,
+        }
+    }
+}
+
+/// The endpoint URIs a protocol accepts.
+#[derive(Debug, Clone, Copy)]
+pub struct Grammar {
+    /// The schemes, canonical ones first.
+    pub schemes: &'static [Scheme],
+    /// Whether `&ID,ID,...` (ids, decimal or `0x` hex) may follow.
+    pub routes: bool,
+    /// Whether `SCHEME:REST` (no `//`) and a bare device path (`/dev/ttyACM0[,BAUD]`, `COM3`)
+    /// are accepted, as pymavlink and rust-mavlink users write them.
+    pub loose: bool,
+    /// Said after the forms in every hint.
+    pub note: &'static str,
+}
+
+/// A scheme provided by another crate, for [`Grammar::parse_with`].
+#[derive(Debug, Clone, Copy)]
+pub struct Extension<X> {
+    /// The name before `:`.
+    pub scheme: &'static str,
+    /// The form, for hints (`zenoh://?listen=...`).
+    pub usage: &'static str,
+    /// Parses the whole URI.
+    pub parse: fn(&str) -> Result<X, UriError>,
+}
+
+/// What [`Grammar::parse_with`] found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Target<X> {
+    /// A link-layer endpoint and its routes.
+    Link(Endpoint, Vec<u8>),
+    /// A URI of an extension's scheme.
+    Other(X),
+}
+
+impl Grammar {
+    /// Parses a URI into an endpoint and its routes (empty unless the grammar takes routes).
+    pub fn parse(&self, uri: &str) -> Result<(Endpoint, Vec<u8>), UriError> {
+        match self.parse_with::<()>(uri, &[])? {
+            Target::Link(endpoint, routes) => Ok((endpoint, routes)),
+            Target::Other(()) => unreachable!("no extensions were given"),
+        }
+    }
+
+    /// Parses a URI into an endpoint, for grammars without routes.
+    pub fn endpoint(&self, uri: &str) -> Result<Endpoint, UriError> {
+        self.parse(uri).map(|(endpoint, _)| endpoint)
+    }
+
+    /// Parses a URI of this grammar or of one of the `extensions`.
+    pub fn parse_with<X>(
+        &self,
+        uri: &str,
+        extensions: &[Extension<X>],
+    ) -> Result<Target<X>, UriError> {
+        let hint = || self.hint(extensions);
+        if let Some(extension) = extensions.iter().find(|e| {
+            uri.strip_prefix(e.scheme)
+                .is_some_and(|rest| rest.starts_with(':'))
+        }) {
+            return (extension.parse)(uri)
+                .map(Target::Other)
+                .map_err(|e| e.with_hint(extension.usage));
+        }
+        self.parse_link(uri, extensions)
+            .map(|(endpoint, routes)| Target::Link(endpoint, routes))
+            .map_err(|e| e.with_hint(hint()))
+    }
+
+    fn parse_link<X>(
+        &self,
+        uri: &str,
+        extensions: &[Extension<X>],
+    ) -> Result<(Endpoint, Vec<u8>), UriError> {
+        let (body, routes) = match uri.split_once('&').filter(|_| self.routes) {
             Some((body, list)) => (body, parse_routes(uri, list)?),
             None => (uri, Vec::new()),
         };
-        let Some((scheme, rest)) = body.split_once("://") else {
-            return Err(UriError::new(format!(
-                "missing scheme in {uri:?}: expected SCHEME://..."
-            )));
-        };
-        let transport = match scheme {
-            "serial" => parse_serial(uri, rest)?,
-            "udp" => {
-                let (host, ports) = split_host(uri, rest)?;
-                let host = require_host(uri, host)?;
-                if ports.len() > 2 {
-                    return Err(too_many(uri, "udp://HOST[:IN_PORT][:OUT_PORT]"));
+        let (scheme, rest) = match body.split_once("://") {
+            Some(split) => split,
+            None if self.loose => match body.split_once(':') {
+                // A one-letter "scheme" is a Windows drive: `C:...`.
+                Some((scheme, rest))
+                    if scheme.len() > 1 && scheme.bytes().all(|b| b.is_ascii_alphabetic()) =>
+                {
+                    (scheme, rest)
                 }
-                Transport::Udp {
-                    host,
-                    in_port: port_or(uri, ports.first(), DEFAULT_UDP_IN_PORT)?,
-                    out_port: port_or(uri, ports.get(1), DEFAULT_UDP_OUT_PORT)?,
+                _ if body.starts_with('/') || body.starts_with("COM") || body.contains(":\\") => {
+                    ("serial", body)
                 }
-            }
-            "tcp" => {
-                let (host, ports) = split_host(uri, rest)?;
-                let host = require_host(uri, host)?;
-                if ports.len() > 1 {
-                    return Err(too_many(uri, "tcp://HOST[:PORT]"));
+                _ => {
+                    return Err(UriError::new(
+                        uri,
+                        0,
+                        "missing scheme: expected SCHEME://...",
+                    ))
                 }
-                Transport::Tcp {
-                    host,
-                    port: port_or(uri, ports.first(), DEFAULT_TCP_PORT)?,
-                }
-            }
-            "tcp-listen" => {
-                let (host, ports) = split_host(uri, rest)?;
-                if ports.len() > 1 {
-                    return Err(too_many(uri, "tcp-listen://[HOST]:PORT"));
-                }
-                let Some(port) = ports.first().filter(|p| !p.is_empty()) else {
-                    let example = if !host.is_empty() && host.bytes().all(|b| b.is_ascii_digit()) {
-                        format!(" (to listen on all interfaces write tcp-listen://:{host})")
-                    } else {
-                        String::new()
-                    };
-                    return Err(UriError::new(format!("missing port in {uri}{example}")));
-                };
-                Transport::TcpListen {
-                    host: if host.is_empty() {
-                        DEFAULT_LISTEN_HOST.to_owned()
-                    } else {
-                        host.to_owned()
-                    },
-                    port: parse_port(uri, port)?,
-                }
-            }
-            "pty" => {
-                if rest.is_empty() {
-                    return Err(UriError::new(format!("missing pty name in {uri}")));
-                }
-                Transport::Pty {
-                    name: rest.to_owned(),
-                }
-            }
-            _ => {
-                return Err(UriError::new(format!(
-                "unknown scheme {scheme:?} in {uri}: expected serial, udp, tcp, tcp-listen or pty"
-            )))
-            }
-        };
-        Ok(Interface { transport, routes })
-    }
-}
-
-/// `serial://PATH[:BAUD]`: a trailing `:DIGITS` is the baud rate, anything else is part of
-/// the path (so `/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0` needs no escaping).
-fn parse_serial(uri: &str, rest: &str) -> Result<Transport, UriError> {
-    let (path, baud) = match rest.rsplit_once(':') {
-        Some((path, baud)) if !baud.is_empty() && baud.bytes().all(|b| b.is_ascii_digit()) => {
-            let baud = baud.parse::<u32>().ok().filter(|&b| b > 0).ok_or_else(|| {
-                UriError::new(format!(
-                    "bad baud rate {baud:?} in {uri}: expected 1..={}",
-                    u32::MAX
+            },
+            None => {
+                return Err(UriError::new(
+                    uri,
+                    0,
+                    "missing scheme: expected SCHEME://...",
                 ))
-            })?;
-            (path, baud)
-        }
-        _ => (rest, DEFAULT_BAUD),
-    };
-    if path.is_empty() {
-        return Err(UriError::new(format!("missing device path in {uri}")));
-    }
-    Ok(Transport::Serial {
-        path: path.to_owned(),
-        baud,
-    })
-}
-
-/// Splits `HOST[:A][:B]...` into the host and the `:`-separated fields after it. An IPv6
-/// host is written in brackets: `[::1]:5000`.
-fn split_host<'a>(uri: &str, rest: &'a str) -> Result<(&'a str, Vec<&'a str>), UriError> {
-    let (host, tail) = if let Some(bracketed) = rest.strip_prefix('[') {
-        let Some((host, tail)) = bracketed.split_once(']') else {
-            return Err(UriError::new(format!(
-                "missing ']' after IPv6 host in {uri}"
-            )));
+            }
         };
-        if host.is_empty() {
-            return Err(UriError::new(format!("empty IPv6 host \"[]\" in {uri}")));
-        }
-        if !tail.is_empty() && !tail.starts_with(':') {
-            return Err(UriError::new(format!(
-                "unexpected {tail:?} after ']' in {uri}: expected :PORT"
-            )));
-        }
-        (host, tail)
-    } else {
-        match rest.find(':') {
-            Some(colon) => rest.split_at(colon),
-            None => (rest, ""),
-        }
-    };
-    if let Some(bad) = host
-        .chars()
-        .find(|c| c.is_whitespace() || "/[]".contains(*c))
-    {
-        return Err(UriError::new(format!(
-            "bad host {host:?} in {uri}: {bad:?} is not allowed in a host name"
-        )));
+        let Some(found) = self.schemes.iter().find(|s| s.name == scheme) else {
+            let names: Vec<&str> = self
+                .schemes
+                .iter()
+                .filter(|s| !s.alias)
+                .map(|s| s.name)
+                .chain(extensions.iter().map(|e| e.scheme))
+                .collect();
+            let list = match names.split_last() {
+                Some((last, [])) => (*last).to_owned(),
+                Some((last, init)) => format!("{} or {last}", init.join(", ")),
+                None => String::new(),
+            };
+            return Err(UriError::at_part(
+                uri,
+                scheme,
+                format!("unknown scheme {scheme:?}: expected {list}"),
+            ));
+        };
+        let p = Parts {
+            uri,
+            scheme,
+            form: found.form,
+            loose: self.loose,
+        };
+        let endpoint = match found.form {
+            Form::UdpIn | Form::UdpOut => {
+                let (host, port) = p.host_port(rest, None)?;
+                let host = p.require_host(rest, host)?;
+                let port = port.ok_or_else(|| p.missing_port(rest, host.as_str()))?;
+                if found.form == Form::UdpIn {
+                    Endpoint::UdpIn(host, port)
+                } else {
+                    Endpoint::UdpOut(host, port)
+                }
+            }
+            Form::UdpPair { in_port, out_port } => {
+                let (host, fields) = p.split_host(rest)?;
+                let host = p.require_host(rest, host)?;
+                if let Some(extra) = fields.get(2) {
+                    return Err(p.too_many(extra));
+                }
+                Endpoint::Udp(
+                    host,
+                    p.port_or(fields.first(), in_port)?,
+                    p.port_or(fields.get(1), out_port)?,
+                )
+            }
+            Form::TcpIn { host: default } => {
+                let (host, port) = p.host_port(rest, None)?;
+                let host = match default {
+                    Some(default) if host.is_empty() => default.to_owned(),
+                    _ => p.require_host(rest, host)?,
+                };
+                let port = port.ok_or_else(|| p.missing_port(rest, host.as_str()))?;
+                Endpoint::TcpIn(host, port)
+            }
+            Form::TcpOut { port: default } => {
+                let (host, port) = p.host_port(rest, default)?;
+                let host = p.require_host(rest, host)?;
+                let port = port.ok_or_else(|| p.missing_port(rest, host.as_str()))?;
+                Endpoint::TcpOut(host, port)
+            }
+            Form::Serial { baud } => p.serial(rest, baud)?,
+            Form::Pty => {
+                if rest.is_empty() {
+                    return Err(UriError::at_part(uri, rest, "missing pty name"));
+                }
+                Endpoint::Pty(rest.to_owned())
+            }
+        };
+        Ok((endpoint, routes))
     }
-    let fields = match tail.strip_prefix(':') {
-        Some(fields) => fields.split(':').collect(),
-        None => Vec::new(),
-    };
-    Ok((host, fields))
+
+    /// The accepted forms, for hints and `--help`.
+    pub fn hint<X>(&self, extensions: &[Extension<X>]) -> String {
+        let forms: Vec<String> = self
+            .schemes
+            .iter()
+            .filter(|s| !s.alias)
+            .map(|s| format!("{}://{}", s.name, s.form.usage()))
+            .chain(extensions.iter().map(|e| e.usage.to_owned()))
+            .collect();
+        let mut hint = format!("accepted forms: {}", forms.join(", "));
+        if self.routes {
+            hint.push_str("; each may end with &ID,ID,... (route ids, decimal or 0x-hex)");
+        }
+        if !self.note.is_empty() {
+            hint.push_str("; ");
+            hint.push_str(self.note);
+        }
+        hint
+    }
+
+    /// Writes `endpoint` (and `routes`) in this grammar's canonical spelling, every default
+    /// spelled out; it parses back to the same endpoint.
+    pub fn write(
+        &self,
+        f: &mut fmt::Formatter<'_>,
+        endpoint: &Endpoint,
+        routes: &[u8],
+    ) -> fmt::Result {
+        match self
+            .schemes
+            .iter()
+            .find(|s| !s.alias && s.form.opens(endpoint))
+        {
+            Some(scheme) => {
+                let canonical = endpoint.to_string();
+                let (_, rest) = canonical.split_once("://").unwrap_or(("", &canonical));
+                write!(f, "{}://{rest}", scheme.name)?;
+            }
+            None => write!(f, "{endpoint}")?,
+        }
+        for (i, id) in routes.iter().enumerate() {
+            write!(f, "{}{id}", if i == 0 { '&' } else { ',' })?;
+        }
+        Ok(())
+    }
 }
 
-fn require_host(uri: &str, host: &str) -> Result<String, UriError> {
-    if host.is_empty() {
-        let ipv6 = if uri.contains("::") {
-            " (write IPv6 addresses in brackets, e.g. [::1])"
+/// The URI being parsed, for error positions.
+struct Parts<'u> {
+    uri: &'u str,
+    scheme: &'u str,
+    form: Form,
+    loose: bool,
+}
+
+impl<'u> Parts<'u> {
+    fn err(&self, part: &str, message: impl Into<String>) -> UriError {
+        UriError::at_part(self.uri, part, message)
+    }
+
+    /// `HOST[:A][:B]...` split into the host and the `:`-separated fields after it. An IPv6 host
+    /// is written in brackets: `[::1]:5000`.
+    fn split_host(&self, rest: &'u str) -> Result<(&'u str, Vec<&'u str>), UriError> {
+        let (host, tail) = if let Some(bracketed) = rest.strip_prefix('[') {
+            let Some((host, tail)) = bracketed.split_once(']') else {
+                return Err(self.err(rest, "missing ']' after IPv6 host"));
+            };
+            if host.is_empty() {
+                return Err(self.err(rest, "empty IPv6 host \"[]\""));
+            }
+            if !tail.is_empty() && !tail.starts_with(':') {
+                return Err(self.err(
+                    tail,
+                    format!("unexpected {tail:?} after ']': expected :PORT"),
+                ));
+            }
+            (host, tail)
         } else {
-            ""
+            rest.split_at(rest.find(':').unwrap_or(rest.len()))
         };
-        return Err(UriError::new(format!("missing host in {uri}{ipv6}")));
+        if let Some(bad) = host.chars().find(|&c| !is_host_char(c)) {
+            return Err(self.err(
+                host,
+                format!("bad host {host:?}: {bad:?} is not allowed in a host name"),
+            ));
+        }
+        let fields = match tail.strip_prefix(':') {
+            Some(fields) => fields.split(':').collect(),
+            None => Vec::new(),
+        };
+        Ok((host, fields))
     }
-    Ok(host.to_owned())
-}
 
-fn too_many(uri: &str, form: &str) -> UriError {
-    UriError::new(format!("too many ':' fields in {uri}: expected {form}"))
-}
+    /// `HOST:PORT` with the port optional: `default` when absent, or `None`.
+    fn host_port(
+        &self,
+        rest: &'u str,
+        default: Option<u16>,
+    ) -> Result<(&'u str, Option<u16>), UriError> {
+        let (host, fields) = self.split_host(rest)?;
+        if let Some(extra) = fields.get(1) {
+            return Err(self.too_many(extra));
+        }
+        let port = match fields.first() {
+            Some(field) if !field.is_empty() => Some(self.port(field)?),
+            _ => default,
+        };
+        Ok((host, port))
+    }
 
-/// An optional port field: absent or empty means `default`.
-fn port_or(uri: &str, field: Option<&&str>, default: u16) -> Result<u16, UriError> {
-    match field {
-        Some(field) if !field.is_empty() => parse_port(uri, field),
-        _ => Ok(default),
+    fn require_host(&self, rest: &str, host: &str) -> Result<String, UriError> {
+        if host.is_empty() {
+            let ipv6 = if rest.starts_with("::") {
+                " (write IPv6 addresses in brackets, e.g. [::1])"
+            } else {
+                ""
+            };
+            return Err(self.err(rest, format!("missing host{ipv6}")));
+        }
+        Ok(host.to_owned())
+    }
+
+    fn missing_port(&self, rest: &str, host: &str) -> UriError {
+        let example = match self.form {
+            Form::TcpIn { host: Some(_) } if host.bytes().all(|b| b.is_ascii_digit()) => {
+                format!(
+                    " (to listen on all interfaces write {}://:{host})",
+                    self.scheme
+                )
+            }
+            _ => String::new(),
+        };
+        UriError::new(
+            self.uri,
+            offset(self.uri, rest) + rest.len(),
+            format!("missing port{example}"),
+        )
+    }
+
+    fn too_many(&self, field: &str) -> UriError {
+        self.err(
+            field,
+            format!(
+                "too many ':' fields: expected {}://{}",
+                self.scheme,
+                self.form.usage()
+            ),
+        )
+    }
+
+    /// An optional port field: absent or empty means `default`.
+    fn port_or(&self, field: Option<&&str>, default: u16) -> Result<u16, UriError> {
+        match field {
+            Some(field) if !field.is_empty() => self.port(field),
+            _ => Ok(default),
+        }
+    }
+
+    fn port(&self, field: &str) -> Result<u16, UriError> {
+        // `u16::from_str` takes a leading '+'; a port is plain digits.
+        field
+            .bytes()
+            .all(|b| b.is_ascii_digit())
+            .then(|| field.parse::<u16>().ok())
+            .flatten()
+            .ok_or_else(|| {
+                self.err(
+                    field,
+                    format!("bad port {field:?}: expected 0..={}", u16::MAX),
+                )
+            })
+    }
+
+    /// `PATH[:BAUD]` (or `PATH,BAUD` in loose grammars).
+    fn serial(&self, rest: &str, default: u32) -> Result<Endpoint, UriError> {
+        let split = rest
+            .rsplit_once(':')
+            .or_else(|| rest.rsplit_once(',').filter(|_| self.loose))
+            .filter(|(_, b)| !b.is_empty() && b.bytes().all(|c| c.is_ascii_digit()));
+        let (path, baud) = match split {
+            Some((path, baud)) => (
+                path,
+                baud.parse::<u32>().ok().filter(|&b| b > 0).ok_or_else(|| {
+                    self.err(
+                        baud,
+                        format!("bad baud rate {baud:?}: expected 1..={}", u32::MAX),
+                    )
+                })?,
+            ),
+            None => (rest, default),
+        };
+        if path.is_empty() {
+            return Err(self.err(rest, "missing device path"));
+        }
+        Ok(Endpoint::Serial(path.to_owned(), baud))
     }
 }
 
-fn parse_port(uri: &str, field: &str) -> Result<u16, UriError> {
-    // `u16::from_str` accepts a leading '+'; a port is plain digits.
-    field
-        .bytes()
-        .all(|b| b.is_ascii_digit())
-        .then(|| field.parse::<u16>().ok())
-        .flatten()
-        .ok_or_else(|| {
-            UriError::new(format!(
-                "bad port {field:?} in {uri}: expected 0..={}",
-                u16::MAX
-            ))
-        })
+/// Whether `host` can stand in a URI: a name or an address (IPv6 colons allowed), without
+/// spaces, control characters or URI punctuation.
+pub fn is_host(host: &str) -> bool {
+    !host.is_empty() && host.chars().all(is_host_char)
+}
+
+/// Whether `c` may stand in a host name or address (an IPv6 address's colons come only from
+/// inside brackets: outside, the first `:` ends the host).
+fn is_host_char(c: char) -> bool {
+    !(c.is_whitespace() || c.is_control() || "/[]@?#&,".contains(c))
 }
 
 /// `ID,ID,...` after the `&`: decimal or `0x`-prefixed hex device ids.
 fn parse_routes(uri: &str, list: &str) -> Result<Vec<u8>, UriError> {
     if list.trim().is_empty() {
-        return Err(UriError::new(format!(
-            "empty route list after '&' in {uri}: expected &ID,ID,..."
-        )));
+        return Err(UriError::at_part(
+            uri,
+            list,
+            "empty route list after '&': expected &ID,ID,...",
+        ));
     }
     list.split(',')
         .map(|field| {
@@ -339,78 +623,12 @@ fn parse_routes(uri: &str, list: &str) -> Result<Vec<u8>, UriError> {
                 None => None,
             };
             parsed.ok_or_else(|| {
-                UriError::new(format!(
-                    "bad route id {id:?} in {uri}: expected 0..=255 (decimal) or 0x00..=0xff"
-                ))
+                UriError::at_part(
+                    uri,
+                    id,
+                    format!("bad route id {id:?}: expected 0..=255 (decimal) or 0x00..=0xff"),
+                )
             })
         })
         .collect()
-}
-
-/// Writes `host` so that it parses back: IPv6 addresses go in brackets.
-fn write_host(f: &mut fmt::Formatter<'_>, host: &str) -> fmt::Result {
-    if host.contains(':') {
-        write!(f, "[{host}]")
-    } else {
-        f.write_str(host)
-    }
-}
-
-impl fmt::Display for Transport {
-    /// The canonical URI with every default spelled out.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Transport::Serial { path, baud } => write!(f, "serial://{path}:{baud}"),
-            Transport::Udp {
-                host,
-                in_port,
-                out_port,
-            } => {
-                f.write_str("udp://")?;
-                write_host(f, host)?;
-                write!(f, ":{in_port}:{out_port}")
-            }
-            Transport::Tcp { host, port } => {
-                f.write_str("tcp://")?;
-                write_host(f, host)?;
-                write!(f, ":{port}")
-            }
-            Transport::TcpListen { host, port } => {
-                f.write_str("tcp-listen://")?;
-                write_host(f, host)?;
-                write!(f, ":{port}")
-            }
-            Transport::Pty { name } => write!(f, "pty://{name}"),
-        }
-    }
-}
-
-impl Interface {
-    /// The link-layer endpoint that opens this interface.
-    pub fn link(&self) -> crate::link::Endpoint {
-        use crate::link::Endpoint;
-        match &self.transport {
-            Transport::Serial { path, baud } => Endpoint::Serial(path.clone(), *baud),
-            Transport::Udp {
-                host,
-                in_port,
-                out_port,
-            } => Endpoint::Udp(host.clone(), *in_port, *out_port),
-            Transport::Tcp { host, port } => Endpoint::TcpOut(host.clone(), *port),
-            Transport::TcpListen { host, port } => Endpoint::TcpIn(host.clone(), *port),
-            Transport::Pty { name } => Endpoint::Pty(name.clone()),
-        }
-    }
-}
-
-impl fmt::Display for Interface {
-    /// The canonical URI with every default spelled out, routes in decimal; it parses back to
-    /// the same value.
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.transport)?;
-        for (i, id) in self.routes.iter().enumerate() {
-            write!(f, "{}{id}", if i == 0 { '&' } else { ',' })?;
-        }
-        Ok(())
-    }
 }

@@ -8,7 +8,7 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use ferrolink_io::link::{self, PeerId, Sender};
-use ferrolink_io::Interface;
+use ferrolink_io::ndlcom::Interface;
 
 /// Longest any single step of a test may take before it counts as hung.
 const PATIENCE: Duration = Duration::from_secs(5);
@@ -40,7 +40,7 @@ fn try_open(uri: &str) -> io::Result<Opened> {
         };
         tx.send(ev).is_ok()
     });
-    let handle = link::open(0, &interface.link(), link::Options::default(), sink)?;
+    let handle = link::open(0, &interface.endpoint, link::Options::default(), sink)?;
     Ok(Opened { handle, events })
 }
 

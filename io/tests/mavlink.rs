@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::tlog::{self, read_tlog, redact_setup_signing};
-use ferrolink_io::mavlink::Connection;
+use ferrolink_io::mavlink::{self, Connection};
 use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
 
 static META: &[MessageMeta] = &[
@@ -48,9 +48,11 @@ fn uris_in_every_spelling() {
         ),
     ];
     for (uri, canonical) in cases {
-        let parsed: Endpoint = uri.parse().unwrap_or_else(|e| panic!("{uri}: {e}"));
+        let parsed: Endpoint = mavlink::ENDPOINTS
+            .endpoint(uri)
+            .unwrap_or_else(|e| panic!("{uri}: {e}"));
         assert_eq!(parsed.to_string(), canonical, "{uri}");
-        assert_eq!(canonical.parse::<Endpoint>().unwrap(), parsed);
+        assert_eq!(mavlink::ENDPOINTS.endpoint(canonical).unwrap(), parsed);
     }
     for bad in [
         "udpin://:14550",
@@ -59,7 +61,7 @@ fn uris_in_every_spelling() {
         "ftp://x:1",
         "x",
     ] {
-        let e = bad.parse::<Endpoint>().unwrap_err().to_string();
+        let e = mavlink::ENDPOINTS.endpoint(bad).unwrap_err().to_string();
         assert!(e.contains(bad) && e.contains("hint"), "{bad}: {e}");
     }
 }

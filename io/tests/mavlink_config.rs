@@ -55,7 +55,9 @@ fn toml_errors_say_where() {
     let err = |text: &str| from_toml(text, Path::new(".")).unwrap_err().to_string();
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nbogus = 1\n"), @"3:1: unknown field `bogus`, expected one of `uri`, `group`, `dedup_ms`, `max_delay_ms`, `signing_key`, `drop_unknown_ids`, `allow_msg_in`, `block_msg_in`, `allow_msg_out`, `block_msg_out`, `allow_src_sys_in`, `block_src_sys_in`, `allow_src_sys_out`, `block_src_sys_out`, `allow_src_comp_in`, `block_src_comp_in`, `allow_src_comp_out`, `block_src_comp_out`");
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"ftp://x:1\"\n"), @r#"
-    endpoint #1 (ftp://x:1): unknown scheme "ftp" in "ftp://x:1"
+    endpoint #1 (ftp://x:1): unknown scheme "ftp": expected udpin, udpout, tcpin, tcpout, serial or pty
+      ftp://x:1
+      ^
       hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME; pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
     "#);
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nsigning_key = \"abc\"\n"), @"endpoint #1 (udpin://x:1): signing_key must be 64 hex digits");

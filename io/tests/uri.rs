@@ -1,39 +1,35 @@
 //! Interface URI parsing, defaults, routes and the canonical `Display` form.
 
-use ferrolink_io::{Interface, Transport, UriError};
+use ferrolink_io::link::Endpoint;
+use ferrolink_io::ndlcom::Interface;
+use ferrolink_io::uri::UriError;
 
 fn parse(uri: &str) -> Interface {
     uri.parse()
         .unwrap_or_else(|e| panic!("{uri:?} should parse: {e}"))
 }
 
-fn transport(uri: &str) -> Transport {
-    let endpoint = parse(uri);
-    assert!(endpoint.routes.is_empty(), "{uri}: unexpected routes");
-    endpoint.transport
+fn transport(uri: &str) -> Endpoint {
+    let interface = parse(uri);
+    assert!(interface.routes.is_empty(), "{uri}: unexpected routes");
+    interface.endpoint
 }
 
-/// The error message (without the hint) for a URI that must not parse.
+/// The URI, the offending part's offset and the message (without the hint) for a URI that must
+/// not parse.
 fn error(uri: &str) -> String {
     match uri.parse::<Interface>() {
         Ok(e) => panic!("{uri:?} should not parse, got {e:?}"),
-        Err(e) => e.message().to_owned(),
+        Err(e) => format!("{uri} @{}: {}", e.at(), e.message()),
     }
 }
 
-fn serial(path: &str, baud: u32) -> Transport {
-    Transport::Serial {
-        path: path.into(),
-        baud,
-    }
+fn serial(path: &str, baud: u32) -> Endpoint {
+    Endpoint::Serial(path.into(), baud)
 }
 
-fn udp(host: &str, in_port: u16, out_port: u16) -> Transport {
-    Transport::Udp {
-        host: host.into(),
-        in_port,
-        out_port,
-    }
+fn udp(host: &str, in_port: u16, out_port: u16) -> Endpoint {
+    Endpoint::Udp(host.into(), in_port, out_port)
 }
 
 #[test]
@@ -81,31 +77,19 @@ fn udp_forms() {
 fn tcp_forms() {
     assert_eq!(
         transport("tcp://192.168.1.5"),
-        Transport::Tcp {
-            host: "192.168.1.5".into(),
-            port: 34000
-        }
+        Endpoint::TcpOut("192.168.1.5".into(), 34000)
     );
     assert_eq!(
         transport("tcp://robot.local:4000"),
-        Transport::Tcp {
-            host: "robot.local".into(),
-            port: 4000
-        }
+        Endpoint::TcpOut("robot.local".into(), 4000)
     );
     assert_eq!(
         transport("tcp-listen://:4000"),
-        Transport::TcpListen {
-            host: "0.0.0.0".into(),
-            port: 4000
-        }
+        Endpoint::TcpIn("0.0.0.0".into(), 4000)
     );
     assert_eq!(
         transport("tcp-listen://127.0.0.1:4000"),
-        Transport::TcpListen {
-            host: "127.0.0.1".into(),
-            port: 4000
-        }
+        Endpoint::TcpIn("127.0.0.1".into(), 4000)
     );
 }
 
@@ -113,15 +97,11 @@ fn tcp_forms() {
 fn pty_forms() {
     assert_eq!(
         transport("pty:///tmp/ndlcom0"),
-        Transport::Pty {
-            name: "/tmp/ndlcom0".into()
-        }
+        Endpoint::Pty("/tmp/ndlcom0".into())
     );
     assert_eq!(
         transport("pty://ttyBridge"),
-        Transport::Pty {
-            name: "ttyBridge".into()
-        }
+        Endpoint::Pty("ttyBridge".into())
     );
 }
 
@@ -131,24 +111,18 @@ fn ipv6_hosts() {
     assert_eq!(transport("udp://[fe80::1]"), udp("fe80::1", 34000, 34001));
     assert_eq!(
         transport("tcp://[2001:db8::7]:80"),
-        Transport::Tcp {
-            host: "2001:db8::7".into(),
-            port: 80
-        }
+        Endpoint::TcpOut("2001:db8::7".into(), 80)
     );
     assert_eq!(
         transport("tcp-listen://[::]:4000"),
-        Transport::TcpListen {
-            host: "::".into(),
-            port: 4000
-        }
+        Endpoint::TcpIn("::".into(), 4000)
     );
 }
 
 #[test]
 fn routes() {
     let e = parse("udp://127.0.0.1:34000:34001&3,4");
-    assert_eq!(e.transport, udp("127.0.0.1", 34000, 34001));
+    assert_eq!(e.endpoint, udp("127.0.0.1", 34000, 34001));
     assert_eq!(e.routes, [3, 4]);
 
     assert_eq!(parse("serial:///dev/ttyUSB0&0x10").routes, [0x10]);
@@ -192,57 +166,43 @@ fn display_spells_out_defaults() {
 fn display_round_trips() {
     let endpoints = [
         Interface {
-            transport: serial("/dev/ttyACM0", 921_600),
+            endpoint: serial("/dev/ttyACM0", 921_600),
             routes: vec![],
         },
         Interface {
-            transport: serial("/dev/odd:12", 57_600),
+            endpoint: serial("/dev/odd:12", 57_600),
             routes: vec![1, 2, 3],
         },
         Interface {
-            transport: serial("/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0", 1),
+            endpoint: serial("/dev/serial/by-path/pci-0000:00:14.0-usb-0:2:1.0-port0", 1),
             routes: vec![],
         },
         Interface {
-            transport: udp("127.0.0.1", 34000, 34001),
+            endpoint: udp("127.0.0.1", 34000, 34001),
             routes: vec![3, 4],
         },
         Interface {
-            transport: udp("fe80::1", 0, 65535),
+            endpoint: udp("fe80::1", 0, 65535),
             routes: vec![255, 0, 255],
         },
         Interface {
-            transport: Transport::Tcp {
-                host: "robot.local".into(),
-                port: 34000,
-            },
+            endpoint: Endpoint::TcpOut("robot.local".into(), 34000),
             routes: vec![],
         },
         Interface {
-            transport: Transport::Tcp {
-                host: "::1".into(),
-                port: 1,
-            },
+            endpoint: Endpoint::TcpOut("::1".into(), 1),
             routes: vec![7],
         },
         Interface {
-            transport: Transport::TcpListen {
-                host: "0.0.0.0".into(),
-                port: 4000,
-            },
+            endpoint: Endpoint::TcpIn("0.0.0.0".into(), 4000),
             routes: vec![],
         },
         Interface {
-            transport: Transport::TcpListen {
-                host: "::".into(),
-                port: 0,
-            },
+            endpoint: Endpoint::TcpIn("::".into(), 0),
             routes: vec![42],
         },
         Interface {
-            transport: Transport::Pty {
-                name: "/tmp/some dir/ttyX".into(),
-            },
+            endpoint: Endpoint::Pty("/tmp/some dir/ttyX".into()),
             routes: vec![0x10],
         },
     ];
@@ -298,39 +258,39 @@ fn error_messages() {
     .map(|uri| error(uri))
     .collect();
     insta::assert_snapshot!(errors.join("\n"), @r#"
-    bad port "x" in udp://localhost:x: expected 0..=65535
-    bad port "70000" in udp://localhost:5000:70000: expected 0..=65535
-    bad port "+5" in udp://localhost:+5: expected 0..=65535
-    too many ':' fields in udp://localhost:1:2:3: expected udp://HOST[:IN_PORT][:OUT_PORT]
-    missing host in udp://:5000
-    missing host in udp://::1:5000 (write IPv6 addresses in brackets, e.g. [::1])
-    missing ']' after IPv6 host in udp://[::1:5000
-    unexpected "5000" after ']' in udp://[::1]5000: expected :PORT
-    empty IPv6 host "[]" in udp://[]:5000
-    bad host "my host" in udp://my host: ' ' is not allowed in a host name
-    missing host in tcp://
-    too many ':' fields in tcp://host:1:2: expected tcp://HOST[:PORT]
-    bad port "-1" in tcp://host:-1: expected 0..=65535
-    missing port in tcp-listen://
-    missing port in tcp-listen://5000 (to listen on all interfaces write tcp-listen://:5000)
-    missing port in tcp-listen://host
-    too many ':' fields in tcp-listen://:1:2: expected tcp-listen://[HOST]:PORT
-    missing device path in serial://
-    missing device path in serial://:115200
-    bad baud rate "0" in serial:///dev/ttyUSB0:0: expected 1..=4294967295
-    bad baud rate "99999999999" in serial:///dev/ttyUSB0:99999999999: expected 1..=4294967295
-    missing pty name in pty://
-    missing pty name in pty://&3
-    empty route list after '&' in udp://h&: expected &ID,ID,...
-    bad route id "" in udp://h&3,: expected 0..=255 (decimal) or 0x00..=0xff
-    bad route id "256" in udp://h&256: expected 0..=255 (decimal) or 0x00..=0xff
-    bad route id "0x100" in udp://h&0x100: expected 0..=255 (decimal) or 0x00..=0xff
-    bad route id "0xg" in udp://h&0xg: expected 0..=255 (decimal) or 0x00..=0xff
-    bad route id "-1" in udp://h&-1: expected 0..=255 (decimal) or 0x00..=0xff
-    bad route id "3;4" in udp://h&3;4: expected 0..=255 (decimal) or 0x00..=0xff
-    missing scheme in "/dev/ttyUSB0": expected SCHEME://...
-    unknown scheme "http" in http://example.com: expected serial, udp, tcp, tcp-listen or pty
-    unknown scheme "UDP" in UDP://host: expected serial, udp, tcp, tcp-listen or pty
+    udp://localhost:x @16: bad port "x": expected 0..=65535
+    udp://localhost:5000:70000 @21: bad port "70000": expected 0..=65535
+    udp://localhost:+5 @16: bad port "+5": expected 0..=65535
+    udp://localhost:1:2:3 @20: too many ':' fields: expected udp://HOST[:IN_PORT][:OUT_PORT]
+    udp://:5000 @6: missing host
+    udp://::1:5000 @6: missing host (write IPv6 addresses in brackets, e.g. [::1])
+    udp://[::1:5000 @6: missing ']' after IPv6 host
+    udp://[::1]5000 @11: unexpected "5000" after ']': expected :PORT
+    udp://[]:5000 @6: empty IPv6 host "[]"
+    udp://my host @6: bad host "my host": ' ' is not allowed in a host name
+    tcp:// @6: missing host
+    tcp://host:1:2 @13: too many ':' fields: expected tcp://HOST[:PORT]
+    tcp://host:-1 @11: bad port "-1": expected 0..=65535
+    tcp-listen:// @13: missing port
+    tcp-listen://5000 @17: missing port (to listen on all interfaces write tcp-listen://:5000)
+    tcp-listen://host @17: missing port
+    tcp-listen://:1:2 @16: too many ':' fields: expected tcp-listen://[HOST]:PORT
+    serial:// @9: missing device path
+    serial://:115200 @9: missing device path
+    serial:///dev/ttyUSB0:0 @22: bad baud rate "0": expected 1..=4294967295
+    serial:///dev/ttyUSB0:99999999999 @22: bad baud rate "99999999999": expected 1..=4294967295
+    pty:// @6: missing pty name
+    pty://&3 @6: missing pty name
+    udp://h& @8: empty route list after '&': expected &ID,ID,...
+    udp://h&3, @10: bad route id "": expected 0..=255 (decimal) or 0x00..=0xff
+    udp://h&256 @8: bad route id "256": expected 0..=255 (decimal) or 0x00..=0xff
+    udp://h&0x100 @8: bad route id "0x100": expected 0..=255 (decimal) or 0x00..=0xff
+    udp://h&0xg @8: bad route id "0xg": expected 0..=255 (decimal) or 0x00..=0xff
+    udp://h&-1 @8: bad route id "-1": expected 0..=255 (decimal) or 0x00..=0xff
+    udp://h&3;4 @8: bad route id "3;4": expected 0..=255 (decimal) or 0x00..=0xff
+    /dev/ttyUSB0 @0: missing scheme: expected SCHEME://...
+    http://example.com @0: unknown scheme "http": expected serial, udp, tcp, tcp-listen or pty
+    UDP://host @0: unknown scheme "UDP": expected serial, udp, tcp, tcp-listen or pty
     "#);
 }
 
@@ -338,7 +298,9 @@ fn error_messages() {
 fn error_display_has_hint() {
     let err: UriError = "udp://localhost:x".parse::<Interface>().unwrap_err();
     insta::assert_snapshot!(err.to_string(), @r#"
-    bad port "x" in udp://localhost:x: expected 0..=65535
+    bad port "x": expected 0..=65535
+      udp://localhost:x
+                      ^
       hint: accepted forms: serial://PATH[:BAUD], udp://HOST[:IN_PORT][:OUT_PORT], tcp://HOST[:PORT], tcp-listen://[HOST]:PORT, pty://NAME; each may end with &ID,ID,... (route ids, decimal or 0x-hex)
     "#);
     // It is a proper error type.
@@ -347,24 +309,66 @@ fn error_display_has_hint() {
 }
 
 #[test]
-fn every_interface_opens_on_the_link_layer() {
-    use ferrolink_io::link::Endpoint as L;
-    let cases = [
-        (
-            "serial:///dev/ttyUSB0",
-            L::Serial("/dev/ttyUSB0".into(), 921_600),
-        ),
-        ("udp://[::1]:5000:5001&3", L::Udp("::1".into(), 5000, 5001)),
-        ("tcp://example.org", L::TcpOut("example.org".into(), 34000)),
-        ("tcp-listen://:34000", L::TcpIn("0.0.0.0".into(), 34000)),
-        ("pty:///tmp/ndlcom0", L::Pty("/tmp/ndlcom0".into())),
-    ];
-    for (uri, link) in cases {
-        assert_eq!(parse(uri).link(), link, "{uri}");
-    }
-    // The link layer names a UDP pair the way the interface URI does.
+fn the_link_layer_names_a_udp_pair_the_way_the_interface_uri_does() {
     assert_eq!(
-        parse("udp://[::1]:5000:5001&3").link().to_string(),
+        parse("udp://[::1]:5000:5001&3").endpoint.to_string(),
         "udp://[::1]:5000:5001"
+    );
+}
+
+#[test]
+fn errors_point_at_the_offending_part() {
+    for (uri, part) in [
+        ("udp://localhost:x", "x"),
+        ("udp://localhost:1:2:3", "3"),
+        ("udp://my host", "my host"),
+        ("udp://h&1,0x100", "0x100"),
+        ("serial:///dev/ttyUSB0:0", "0"),
+        ("http://example.com", "http"),
+        ("tcp-listen://host", ""),
+    ] {
+        let err = uri.parse::<Interface>().unwrap_err();
+        assert_eq!(
+            err.at(),
+            uri.rfind(part)
+                .map_or(uri.len(), |at| if part.is_empty() { uri.len() } else { at }),
+            "{uri}: {err}"
+        );
+        assert_eq!(err.uri(), uri);
+        assert!(err.hint().starts_with("accepted forms:"), "{uri}: {err}");
+    }
+}
+
+#[test]
+fn one_grammar_many_protocols() {
+    use ferrolink_io::mavlink;
+    // The same scheme means what each protocol's users expect...
+    assert_eq!(
+        mavlink::ENDPOINTS.endpoint("udp://0.0.0.0:14550").unwrap(),
+        Endpoint::UdpIn("0.0.0.0".into(), 14550)
+    );
+    assert_eq!(
+        transport("udp://0.0.0.0:14550"),
+        udp("0.0.0.0", 14550, 34001)
+    );
+    // ...with each protocol's own defaults...
+    assert_eq!(
+        mavlink::ENDPOINTS
+            .endpoint("serial:///dev/ttyUSB0")
+            .unwrap(),
+        serial("/dev/ttyUSB0", 57_600)
+    );
+    assert_eq!(
+        transport("serial:///dev/ttyUSB0"),
+        serial("/dev/ttyUSB0", 921_600)
+    );
+    // ...and its own loose spellings: NDLCom has none, MAVLink takes pymavlink's.
+    assert!(mavlink::ENDPOINTS.endpoint("/dev/ttyACM0,115200").is_ok());
+    assert!("/dev/ttyACM0,115200".parse::<Interface>().is_err());
+    // Routes belong to NDLCom: in a MAVLink URI an '&' is no host character.
+    let err = mavlink::ENDPOINTS.endpoint("udpin://h&3:1").unwrap_err();
+    assert_eq!(
+        (err.message(), err.at()),
+        ("bad host \"h&3\": '&' is not allowed in a host name", 8)
     );
 }

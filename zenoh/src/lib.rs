@@ -29,4 +29,4 @@ pub mod uri;
 
 pub use session::Running;
 
-pub use uri::{Encoding, Mode, UriError, ZenohUri};
+pub use uri::{Encoding, Mode, ZenohUri, SCHEME};

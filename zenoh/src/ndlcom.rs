@@ -15,8 +15,8 @@ use std::io;
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
-use ferrolink_io::bridge::Attached;
 use ferrolink_io::link::{self, Event, Sender};
+use ferrolink_io::ndlcom::bridge::Attached;
 use ferrolink_runtime::ndlcom::{self, parser::Parser, storage_len, Header, FLAG};
 use ferrolink_traffic::PayloadDecoder;
 use zenoh::Wait;

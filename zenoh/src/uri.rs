@@ -3,6 +3,8 @@
 use std::fmt;
 use std::str::FromStr;
 
+use ferrolink_io::uri::{Extension, UriError};
+
 /// How a Zenoh endpoint joins the network.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum Mode {
@@ -42,29 +44,26 @@ pub struct ZenohUri {
 /// The default key expression prefix.
 pub const DEFAULT_PREFIX: &str = "ferrolink";
 
-const FORM: &str = "zenoh://?mode=peer|client&listen=tcp/HOST:PORT&connect=tcp/HOST:PORT\
-                    &encoding=raw|json&prefix=NAME (listen and connect repeat; at least one)";
+/// The form, for hints.
+pub const FORM: &str = "zenoh://?mode=peer|client&listen=tcp/HOST:PORT&connect=tcp/HOST:PORT\
+                        &encoding=raw|json&prefix=NAME (listen and connect repeat; at least one)";
 
-/// Why a `zenoh://` URI did not parse; the text names the URI and shows the form.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct UriError(String);
-
-impl fmt::Display for UriError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}\n  hint: {FORM}", self.0)
-    }
-}
-
-impl std::error::Error for UriError {}
+/// The `zenoh://` scheme, for [`Grammar::parse_with`](ferrolink_io::uri::Grammar::parse_with):
+/// with it, a protocol's endpoint list takes Zenoh URIs too.
+pub const SCHEME: Extension<ZenohUri> = Extension {
+    scheme: "zenoh",
+    usage: FORM,
+    parse: |uri| uri.parse(),
+};
 
 impl FromStr for ZenohUri {
     type Err = UriError;
 
     fn from_str(uri: &str) -> Result<Self, UriError> {
-        let bad = |what: String| UriError(format!("{what} in {uri:?}"));
+        let bad = |part: &str, what: String| UriError::at_part(uri, part, what).with_hint(FORM);
         let query = uri
             .strip_prefix("zenoh://")
-            .ok_or_else(|| bad("not a zenoh:// URI".into()))?;
+            .ok_or_else(|| bad(uri, "not a zenoh:// URI".into()))?;
         let query = query.strip_prefix('?').unwrap_or(query);
         let mut parsed = ZenohUri {
             prefix: DEFAULT_PREFIX.into(),
@@ -73,13 +72,13 @@ impl FromStr for ZenohUri {
         for pair in query.split('&').filter(|p| !p.is_empty()) {
             let (key, value) = pair
                 .split_once('=')
-                .ok_or_else(|| bad(format!("{pair:?} is not KEY=VALUE")))?;
+                .ok_or_else(|| bad(pair, format!("{pair:?} is not KEY=VALUE")))?;
             match key {
                 "mode" => {
                     parsed.mode = match value {
                         "peer" => Mode::Peer,
                         "client" => Mode::Client,
-                        _ => return Err(bad(format!("mode {value:?} (peer or client)"))),
+                        _ => return Err(bad(value, format!("mode {value:?} (peer or client)"))),
                     }
                 }
                 "listen" | "connect" => {
@@ -88,9 +87,12 @@ impl FromStr for ZenohUri {
                         .is_some_and(|(proto, addr)| !proto.is_empty() && !addr.is_empty())
                         && !value.chars().any(char::is_whitespace);
                     if !ok {
-                        return Err(bad(format!(
-                            "{key} {value:?} is no Zenoh endpoint (PROTOCOL/ADDRESS, e.g. tcp/127.0.0.1:7447)"
-                        )));
+                        return Err(bad(
+                            value,
+                            format!(
+                                "{key} {value:?} is no Zenoh endpoint (PROTOCOL/ADDRESS, e.g. tcp/127.0.0.1:7447)"
+                            ),
+                        ));
                     }
                     let list = if key == "listen" {
                         &mut parsed.listen
@@ -103,7 +105,7 @@ impl FromStr for ZenohUri {
                     parsed.encoding = match value {
                         "raw" => Encoding::Raw,
                         "json" => Encoding::Json,
-                        _ => return Err(bad(format!("encoding {value:?} (raw or json)"))),
+                        _ => return Err(bad(value, format!("encoding {value:?} (raw or json)"))),
                     }
                 }
                 "prefix" => {
@@ -112,17 +114,20 @@ impl FromStr for ZenohUri {
                             .chars()
                             .any(|c| c.is_whitespace() || c.is_control() || "/*$?#".contains(c));
                     if !ok {
-                        return Err(bad(format!(
-                            "prefix {value:?} (one key expression segment: no '/', '*', '$', '?', '#')"
-                        )));
+                        return Err(bad(
+                            value,
+                            format!(
+                                "prefix {value:?} (one key expression segment: no '/', '*', '$', '?', '#')"
+                            ),
+                        ));
                     }
                     parsed.prefix = value.into();
                 }
-                _ => return Err(bad(format!("unknown parameter {key:?}"))),
+                _ => return Err(bad(key, format!("unknown parameter {key:?}"))),
             }
         }
         if parsed.listen.is_empty() && parsed.connect.is_empty() {
-            return Err(bad("neither listen nor connect".into()));
+            return Err(bad(query, "neither listen nor connect".into()));
         }
         Ok(parsed)
     }
@@ -224,7 +229,11 @@ mod tests {
     #[test]
     fn errors_name_the_part_and_show_the_form() {
         let err = |uri: &str| uri.parse::<ZenohUri>().unwrap_err().to_string();
-        assert!(err("zenoh://?mode=peer").starts_with("neither listen nor connect in"));
+        assert!(err("zenoh://?mode=peer").starts_with("neither listen nor connect\n"));
+        let e = "zenoh://?listen=tcp/h:1&mode=router"
+            .parse::<ZenohUri>()
+            .unwrap_err();
+        assert_eq!(e.at(), "zenoh://?listen=tcp/h:1&mode=".len());
         assert!(err("zenoh://?listen=7447").contains("is no Zenoh endpoint"));
         assert!(err("zenoh://?listen=tcp/h:1&mode=router").contains("mode \"router\""));
         assert!(err("zenoh://?listen=tcp/h:1&encoding=cbor").contains("encoding \"cbor\""));

@@ -40,7 +40,8 @@ use ferrolink_runtime::mavlink::router::{ByteSet, Filter, IdSet, LinkConfig};
 use ferrolink_runtime::mavlink::signing::SecretKey;
 use serde::Deserialize;
 
-use crate::link::{is_host, Endpoint};
+use crate::link::Endpoint;
+use crate::uri::is_host;
 
 /// An endpoint and how its links behave.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -226,9 +227,8 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
     let mut endpoints = Vec::new();
     for (i, e) in file.endpoint.iter().enumerate() {
         let at = format!("endpoint #{} ({})", i + 1, e.uri);
-        let endpoint = e
-            .uri
-            .parse::<Endpoint>()
+        let endpoint = super::ENDPOINTS
+            .endpoint(&e.uri)
             .map_err(|err| error(format!("{at}: {err}")))?;
         let link = LinkConfig {
             inbound: Filter {

@@ -35,6 +35,43 @@ use ferrolink_runtime::mavlink::{
 };
 
 use crate::link::{self, Endpoint, Event, PeerId, Sender};
+use crate::uri::{Form, Grammar, Scheme};
+
+/// Baud rate of a serial URI without one.
+pub const DEFAULT_BAUD: u32 = 57_600;
+
+/// The endpoint URIs MAVLink programs take (`Connection::open`, the router), on the one URI
+/// grammar ([`uri`](crate::uri)):
+///
+/// | URI | endpoint |
+/// |-----|----------|
+/// | `udpin://HOST:PORT` | listen; every sender is a peer |
+/// | `udpout://HOST:PORT` | send there, read the replies |
+/// | `tcpin://HOST:PORT` | TCP server; every client is a peer |
+/// | `tcpout://HOST:PORT` | TCP client that reconnects |
+/// | `serial://PATH[:BAUD]` | serial device, 8N1, 57600 baud unless named |
+/// | `pty://NAME` | a pseudo-terminal linked at `NAME` |
+///
+/// The spellings of pymavlink and rust-mavlink are accepted as well, so a user can paste what
+/// they know: `udpin:0.0.0.0:14550`, `udpout:HOST:PORT`, `udp:HOST:PORT` (= udpin),
+/// `udpbcast:HOST:PORT` (= udpout), `tcp:HOST:PORT` (= tcpout), `tcpin:HOST:PORT`,
+/// `serial:/dev/ttyUSB0:57600`, a bare device path (`/dev/ttyACM0[,BAUD]` or `COM3`).
+pub const ENDPOINTS: Grammar = Grammar {
+    schemes: &[
+        Scheme::new("udpin", Form::UdpIn),
+        Scheme::new("udpout", Form::UdpOut),
+        Scheme::new("tcpin", Form::TcpIn { host: None }),
+        Scheme::new("tcpout", Form::TcpOut { port: None }),
+        Scheme::new("serial", Form::Serial { baud: DEFAULT_BAUD }),
+        Scheme::new("pty", Form::Pty),
+        Scheme::alias("udp", Form::UdpIn),
+        Scheme::alias("udpbcast", Form::UdpOut),
+        Scheme::alias("tcp", Form::TcpOut { port: None }),
+    ],
+    routes: false,
+    loose: true,
+    note: "pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too",
+};
 
 /// Microseconds since the Unix epoch, by the system clock.
 pub fn unix_us() -> u64 {
@@ -210,8 +247,8 @@ impl<E> std::fmt::Debug for Connection<E> {
 
 impl<E: Events> Connection<E> {
     fn start(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
-        let endpoint: Endpoint = uri
-            .parse()
+        let endpoint = ENDPOINTS
+            .endpoint(uri)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
         let (events, sink) = E::new();
         let handle = link::open(0, &endpoint, link::Options::default(), sink)?;

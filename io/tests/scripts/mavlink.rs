@@ -13,6 +13,7 @@
 use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::{from_main_conf, from_toml, FileConfig};
 use ferrolink_io::mavlink::tlog::{read_raw, read_tlog, ReadStats, Record};
+use ferrolink_io::mavlink::ENDPOINTS;
 use ferrolink_runtime::mavlink::MessageMeta;
 
 pub fn check_tlog(data: &[u8], table: &'static [MessageMeta]) {
@@ -56,7 +57,7 @@ pub fn check_tlog(data: &[u8], table: &'static [MessageMeta]) {
 
 fn round_trips(endpoint: &Endpoint) {
     let text = endpoint.to_string();
-    assert_eq!(text.parse::<Endpoint>().as_ref(), Ok(endpoint), "{text}");
+    assert_eq!(ENDPOINTS.endpoint(&text).as_ref(), Ok(endpoint), "{text}");
 }
 
 fn endpoints_round_trip(config: &FileConfig) {
@@ -67,7 +68,7 @@ fn endpoints_round_trip(config: &FileConfig) {
 
 pub fn check_config(data: &[u8]) {
     let text = String::from_utf8_lossy(data);
-    if let Ok(endpoint) = text.parse::<Endpoint>() {
+    if let Ok(endpoint) = ENDPOINTS.endpoint(&text) {
         round_trips(&endpoint);
     }
     if let Ok(config) = from_toml(&text, std::path::Path::new(".")) {

@@ -29,8 +29,8 @@ use ferrolink_runtime::ndlcom::{self, payload, storage_len, Frame, Header, BROAD
 use ferrolink_runtime::wire;
 use serde_json::json;
 
+use super::Interface;
 use crate::link::{self, PeerId, Sender};
-use crate::Interface;
 
 /// The most interfaces (mirrors included) one bridge process serves.
 pub const MAX_INTERFACES: usize = 8;
@@ -183,7 +183,7 @@ pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
             node.router_mut().set_mirror(i, true);
         }
         let uri = endpoint.to_string();
-        let handle = link::open(i, &endpoint.link(), link::Options::default(), sink(&tx))
+        let handle = link::open(i, &endpoint.endpoint, link::Options::default(), sink(&tx))
             .map_err(|e| io::Error::new(e.kind(), format!("{uri}: {e}")))?;
         handles.push(handle);
     }
