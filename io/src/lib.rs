@@ -15,6 +15,7 @@
 use std::io;
 use std::time::Duration;
 
+pub mod framed;
 pub mod link;
 pub mod mavlink;
 pub mod modrob;

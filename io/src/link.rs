@@ -17,7 +17,7 @@
 //! | `tcpin://HOST:PORT` | each client | any number of clients |
 //! | `tcpout://HOST:PORT` | the server | reconnects with a backoff from 50 ms doubling to 1 s |
 //! | `serial://PATH[:BAUD]` | the device | reopened every second after it fails or is unplugged |
-//! | `pty://NAME` | the program attached to the pseudo-terminal linked at `NAME` | created at open, removed once the endpoint and its senders are dropped |
+//! | `pty://NAME` | the program attached to the pseudo-terminal linked at `NAME` | created and reported up at open, removed once the endpoint and its senders are dropped |
 //!
 //! Users name endpoints in their protocol's spelling: [`uri`](crate::uri) holds the one grammar,
 //! and each protocol declares its schemes and defaults there
@@ -336,12 +336,15 @@ pub fn open(
             None
         }
         Endpoint::Pty(link) => {
-            // Created now, so that the link exists when `open` returns.
+            // Created and reported now, so that the link exists and can be written to when
+            // `open` returns.
             let (reader, writer) = crate::serial::open_pty(link).map_err(context)?;
+            let peer = peer_up(index, &name, writer, &events)
+                .ok_or_else(|| io::Error::other(format!("{uri}: nobody listens for events")))?;
             spawn(&uri, {
                 let stop = stop.clone();
                 move || {
-                    read_peer(index, &name, reader, writer, &stop, &events);
+                    read_until_down(peer, reader, &stop, &events);
                 }
             })?;
             None
@@ -521,11 +524,17 @@ fn stream_peer(
 fn read_peer(
     index: usize,
     name: &str,
-    mut reader: Box<dyn LinkReader>,
+    reader: Box<dyn LinkReader>,
     writer: Box<dyn LinkWriter>,
     stop: &AtomicBool,
     events: &Sink,
 ) -> Option<String> {
+    let peer = peer_up(index, name, writer, events)?;
+    read_until_down(peer, reader, stop, events)
+}
+
+/// Reports a new stream peer that writes through `writer`; `None` if nobody listens.
+fn peer_up(index: usize, name: &str, writer: Box<dyn LinkWriter>, events: &Sink) -> Option<PeerId> {
     let peer = next_peer();
     let up = Event::Up {
         endpoint: index,
@@ -533,7 +542,17 @@ fn read_peer(
         name: name.to_owned(),
         sender: Sender(SenderKind::Stream(Arc::new(Mutex::new(writer)))),
     };
-    events(up).then_some(())?;
+    events(up).then_some(peer)
+}
+
+/// Reports what `peer` sends until its stream fails (then reports it down and returns why) or
+/// the endpoint stops.
+fn read_until_down(
+    peer: PeerId,
+    mut reader: Box<dyn LinkReader>,
+    stop: &AtomicBool,
+    events: &Sink,
+) -> Option<String> {
     let mut buf = vec![0u8; 16 * 1024];
     let why = loop {
         if stop.load(Ordering::Relaxed) {

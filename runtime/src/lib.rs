@@ -28,6 +28,9 @@ extern crate std;
 extern crate self as ferrolink_runtime;
 
 pub mod crc;
+pub mod framing;
+#[cfg(any(feature = "ndlcom", feature = "tosnet"))]
+mod hdlc;
 #[cfg(feature = "mavlink")]
 pub mod mavlink;
 #[cfg(feature = "modrob")]

@@ -449,7 +449,11 @@ fn feed_returns_the_rest_of_the_input() {
     let mut parser = Parser::new();
     let mut input = &stream[..];
     let mut got = Vec::new();
-    while let ferrolink_runtime::modrob::Feed::Message { message, remaining } = parser.feed(input) {
+    while let ferrolink_runtime::modrob::Feed::Frame {
+        frame: message,
+        remaining,
+    } = parser.feed(input)
+    {
         assert!(remaining.len() < input.len());
         got.push(message);
         input = remaining;

@@ -51,6 +51,13 @@ proptest! {
     }
 
     #[test]
+    fn any_bytes_on_a_stream(
+        bytes in prop::collection::vec(prop_oneof![Just(0x7E), Just(0x7D), any::<u8>()], 0..400)
+    ) {
+        scripts::check_stream(&bytes);
+    }
+
+    #[test]
     fn any_script_for_a_node(script in prop::collection::vec(any::<u8>(), 0..600)) {
         scripts::check_node(&script);
     }

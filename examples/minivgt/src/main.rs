@@ -18,7 +18,7 @@ use clap::{Parser, Subcommand};
 use ferrolink_generated::tosnet::minivgt::{
     Master, MotorState, MotorTarget, Section1, Section2, Section3,
 };
-use ferrolink_io::tosnet::udp::UdpNode;
+use ferrolink_io::tosnet::UdpNode;
 use ferrolink_runtime::tosnet::{Block, Config, Counters, Node, NodeId, Phase, Status};
 
 /// Node ids in ring order.

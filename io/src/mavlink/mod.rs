@@ -23,18 +23,22 @@ pub mod config;
 pub mod router;
 pub mod tlog;
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 use std::io;
-use std::sync::{mpsc, Arc};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use ferrolink_runtime::mavlink::parser::{Feed, ParsedFrame, Parser};
+use ferrolink_runtime::mavlink::parser::{ParsedFrame, Parser};
 use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
 use ferrolink_runtime::mavlink::{
     find_meta, v1, v2, AnyFrame, Dialect, Header, Message, MessageMeta, UnknownMessageId, Version,
 };
 
-use crate::link::{self, Endpoint, Event, PeerId, Sender};
+#[cfg(feature = "tokio")]
+pub use crate::framed::Async;
+use crate::framed::Framed;
+pub use crate::framed::{Blocking, Events};
 use crate::uri::{Form, Grammar, Scheme};
 
 /// Baud rate of a serial URI without one.
@@ -141,73 +145,6 @@ impl From<&ParsedFrame<'_>> for Frame {
     }
 }
 
-struct Peer {
-    sender: Sender,
-    parser: Parser,
-}
-
-/// An endpoint event, moved to the connection's thread.
-#[derive(Debug)]
-pub enum Owned {
-    /// A peer appeared.
-    Up(PeerId, Sender),
-    /// Bytes from a peer.
-    Rx(PeerId, Vec<u8>),
-    /// A peer went away.
-    Down(PeerId),
-}
-
-impl From<Event<'_>> for Owned {
-    fn from(event: Event<'_>) -> Self {
-        match event {
-            Event::Up { peer, sender, .. } => Owned::Up(peer, sender),
-            Event::Rx { peer, bytes, .. } => Owned::Rx(peer, bytes.to_vec()),
-            Event::Down { peer, .. } => Owned::Down(peer),
-        }
-    }
-}
-
-/// How a connection waits for its endpoint's events: [`Blocking`] or, with the `tokio`
-/// feature, `Async`.
-pub trait Events: Sized {
-    /// Starts receiving, and gives the sink the endpoint reports to.
-    fn new() -> (Self, link::Sink);
-    /// An event that is already there.
-    fn try_next(&mut self) -> Option<Owned>;
-}
-
-/// Events for the blocking API.
-#[derive(Debug)]
-pub struct Blocking(mpsc::Receiver<Owned>);
-
-impl Events for Blocking {
-    fn new() -> (Self, link::Sink) {
-        let (tx, rx) = mpsc::channel();
-        (Blocking(rx), Arc::new(move |e| tx.send(e.into()).is_ok()))
-    }
-
-    fn try_next(&mut self) -> Option<Owned> {
-        self.0.try_recv().ok()
-    }
-}
-
-/// Events for the async API (feature `tokio`; it needs no particular runtime).
-#[cfg(feature = "tokio")]
-#[derive(Debug)]
-pub struct Async(tokio::sync::mpsc::UnboundedReceiver<Owned>);
-
-#[cfg(feature = "tokio")]
-impl Events for Async {
-    fn new() -> (Self, link::Sink) {
-        let (tx, rx) = tokio::sync::mpsc::unbounded_channel();
-        (Async(rx), Arc::new(move |e| tx.send(e.into()).is_ok()))
-    }
-
-    fn try_next(&mut self) -> Option<Owned> {
-        self.0.try_recv().ok()
-    }
-}
-
 /// The async connection: [`Connection`] with `recv` and `recv_message` as `async fn`s.
 #[cfg(feature = "tokio")]
 pub type AsyncConnection = Connection<Async>;
@@ -220,25 +157,22 @@ pub type AsyncConnection = Connection<Async>;
 /// address heard from in the last 10 s. Sends use the connection's own system and component ids
 /// and sequence numbers counting up, as MAVLink 2 (or 1) frames, signed if a key is set.
 pub struct Connection<E = Blocking> {
-    uri: Endpoint,
+    framed: Framed<Parser, E>,
     table: &'static [MessageMeta],
-    handle: link::Handle,
-    events: E,
-    peers: HashMap<PeerId, Peer>,
+    /// Read by the parsers of peers yet to come.
+    pass_unknown: Arc<AtomicBool>,
     queue: VecDeque<Frame>,
     sysid: u8,
     compid: u8,
     seq: u8,
     version: Version,
     signer: Option<Signer>,
-    pass_unknown: bool,
 }
 
 impl<E> std::fmt::Debug for Connection<E> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Connection")
-            .field("uri", &self.uri.to_string())
-            .field("peers", &self.peers.len())
+            .field("framed", &self.framed)
             .field("sysid", &self.sysid)
             .field("compid", &self.compid)
             .finish_non_exhaustive()
@@ -250,27 +184,27 @@ impl<E: Events> Connection<E> {
         let endpoint = ENDPOINTS
             .endpoint(uri)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-        let (events, sink) = E::new();
-        let handle = link::open(0, &endpoint, link::Options::default(), sink)?;
+        let pass_unknown = Arc::new(AtomicBool::new(false));
+        let pass = pass_unknown.clone();
+        let framed = Framed::open(&endpoint, move || {
+            Parser::new(table).pass_unknown_ids(pass.load(Ordering::Relaxed))
+        })?;
         Ok(Self {
-            uri: endpoint,
+            framed,
             table,
-            handle,
-            events,
-            peers: HashMap::new(),
+            pass_unknown,
             queue: VecDeque::new(),
             sysid: 255,
             compid: 190,
             seq: 0,
             version: Version::V2,
             signer: None,
-            pass_unknown: false,
         })
     }
 
     /// The bound local address, for `udpin`, `udpout` and `tcpin` URIs.
     pub fn local_addr(&self) -> Option<std::net::SocketAddr> {
-        self.handle.local_addr()
+        self.framed.local_addr()
     }
 
     /// The system and component ids frames are sent from (255/190, a ground station, by
@@ -291,50 +225,22 @@ impl<E: Events> Connection<E> {
 
     /// Hands out frames with ids the table lacks too, unchecked (off by default).
     pub fn set_pass_unknown_ids(&mut self, pass: bool) {
-        self.pass_unknown = pass;
-        for peer in self.peers.values_mut() {
-            peer.parser.set_pass_unknown_ids(pass);
+        self.pass_unknown.store(pass, Ordering::Relaxed);
+        for parser in self.framed.deframers_mut() {
+            parser.set_pass_unknown_ids(pass);
         }
     }
 
     /// How many peers are connected now.
     pub fn peers(&self) -> usize {
-        self.peers.len()
+        self.framed.peers()
     }
 
     /// Takes in what arrived without waiting (peers appearing and going too).
     pub fn poll(&mut self) {
-        while let Some(event) = self.events.try_next() {
-            self.handle(event);
-        }
-    }
-
-    fn stopped(&self) -> io::Error {
-        io::Error::new(
-            io::ErrorKind::BrokenPipe,
-            format!("{}: the endpoint stopped", self.uri),
-        )
-    }
-
-    fn handle(&mut self, event: Owned) {
-        match event {
-            Owned::Up(peer, sender) => {
-                let parser = Parser::new(self.table).pass_unknown_ids(self.pass_unknown);
-                self.peers.insert(peer, Peer { sender, parser });
-            }
-            Owned::Rx(peer, bytes) => {
-                if let Some(p) = self.peers.get_mut(&peer) {
-                    let mut input = bytes.as_slice();
-                    while let Feed::Frame { frame, remaining } = p.parser.feed(input) {
-                        self.queue.push_back(Frame::from(&frame));
-                        input = remaining;
-                    }
-                }
-            }
-            Owned::Down(peer) => {
-                self.peers.remove(&peer);
-            }
-        }
+        let queue = &mut self.queue;
+        self.framed
+            .poll(|_, frame| queue.push_back(Frame::from(&frame)));
     }
 
     /// Sends `message` to every peer, from this connection's ids, with the next sequence
@@ -382,24 +288,7 @@ impl<E: Events> Connection<E> {
         };
         let n = encoded.map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
         self.seq = self.seq.wrapping_add(1);
-        if self.peers.is_empty() {
-            return Err(io::Error::new(
-                io::ErrorKind::NotConnected,
-                format!("{}: no peer yet", self.uri),
-            ));
-        }
-        let mut last_error = None;
-        let mut sent = 0;
-        for peer in self.peers.values() {
-            match peer.sender.send(&out[..n]) {
-                Ok(()) => sent += 1,
-                Err(e) => last_error = Some(e),
-            }
-        }
-        match (sent, last_error) {
-            (0, Some(e)) => Err(e),
-            _ => Ok(()),
-        }
+        self.framed.send(&out[..n])
     }
 }
 
@@ -419,10 +308,12 @@ impl Connection<Blocking> {
                 return Ok(Some(frame));
             }
             let left = deadline.saturating_duration_since(Instant::now());
-            match self.events.0.recv_timeout(left) {
-                Ok(event) => self.handle(event),
-                Err(mpsc::RecvTimeoutError::Timeout) => return Ok(None),
-                Err(mpsc::RecvTimeoutError::Disconnected) => return Err(self.stopped()),
+            let queue = &mut self.queue;
+            if !self
+                .framed
+                .wait(Some(left), |_, frame| queue.push_back(Frame::from(&frame)))?
+            {
+                return Ok(None);
             }
         }
     }
@@ -448,10 +339,9 @@ impl Connection<Blocking> {
             if let Some(frame) = self.queue.pop_front() {
                 return Ok(frame);
             }
-            match self.events.0.recv() {
-                Ok(event) => self.handle(event),
-                Err(mpsc::RecvError) => return Err(self.stopped()),
-            }
+            let queue = &mut self.queue;
+            self.framed
+                .wait(None, |_, frame| queue.push_back(Frame::from(&frame)))?;
         }
     }
 
@@ -540,10 +430,10 @@ impl Connection<Async> {
             if let Some(frame) = self.queue.pop_front() {
                 return Ok(frame);
             }
-            match self.events.0.recv().await {
-                Some(event) => self.handle(event),
-                None => return Err(self.stopped()),
-            }
+            let queue = &mut self.queue;
+            self.framed
+                .next(|_, frame| queue.push_back(Frame::from(&frame)))
+                .await?;
         }
     }
 

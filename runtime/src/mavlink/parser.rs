@@ -41,6 +41,7 @@ use core::fmt;
 use super::frame::{body_checksum, is_magic, AnyFrame, Header};
 use super::{find_meta, v1, v2, Dialect, MessageMeta, UnknownMessageId};
 use crate::bump;
+use crate::framing::{wide, Counters, Deframer};
 
 /// What a [`Parser`] accepted and dropped so far. The counters are `usize`: 64 bits on a PC,
 /// one word on a microcontroller, where they wrap instead of overflowing.
@@ -75,20 +76,26 @@ impl Stats {
     }
 }
 
-/// The outcome of [`Parser::feed`].
-#[derive(Debug)]
-#[must_use = "a frame and the rest of the input may be in the result"]
-pub enum Feed<'p, 'a> {
-    /// All input was consumed (kept in the parser's buffer or dropped); no complete frame yet.
-    Consumed,
-    /// A frame, and the input after it, which the parser has not looked at yet.
-    Frame {
-        /// The frame, borrowed from the input or from the parser until the next `feed`.
-        frame: ParsedFrame<'p>,
-        /// The input the parser has not consumed; feed it next.
-        remaining: &'a [u8],
-    },
+impl Counters for Stats {
+    fn frames(&self) -> u64 {
+        wide(self.frames)
+    }
+
+    fn dropped(&self) -> u64 {
+        wide(self.rejected())
+    }
+
+    fn each(&self, f: &mut dyn FnMut(&'static str, u64)) {
+        f("frames", wide(self.frames));
+        f("unchecked", wide(self.unchecked));
+        f("garbage_bytes", wide(self.garbage_bytes));
+        f("bad_crc", wide(self.bad_crc));
+        f("unknown_id", wide(self.unknown_id));
+        f("bad_flags", wide(self.bad_flags));
+    }
 }
+
+pub use crate::framing::Feed;
 
 /// A frame the parser accepted: its checksum matched, unless its id was unknown and the parser
 /// passes unknown ids through.
@@ -326,7 +333,7 @@ impl<const N: usize> Parser<N> {
     ///
     /// Call `feed` again with `remaining` until it returns [`Feed::Consumed`]. A frame returned
     /// from the internal buffer stays valid until the next call.
-    pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'p, 'a> {
+    pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'a, ParsedFrame<'p>> {
         if self.pending > 0 {
             self.start += self.pending;
             self.pending = 0;
@@ -449,18 +456,8 @@ impl<const N: usize> Parser<N> {
     }
 
     /// Feeds bytes and calls `on_frame` for every frame they complete; returns how many.
-    pub fn feed_all(
-        &mut self,
-        mut input: &[u8],
-        mut on_frame: impl FnMut(ParsedFrame<'_>),
-    ) -> usize {
-        let mut n = 0;
-        while let Feed::Frame { frame, remaining } = self.feed(input) {
-            on_frame(frame);
-            input = remaining;
-            n += 1;
-        }
-        n
+    pub fn feed_all(&mut self, input: &[u8], on_frame: impl FnMut(ParsedFrame<'_>)) -> usize {
+        Deframer::feed_all(self, input, on_frame)
     }
 
     /// Judges the one frame that starts at `bytes[0]`, without searching or buffering: for
@@ -636,6 +633,29 @@ fn accept_if_crc_matches(
         Eval::Accept { len: total, meta }
     } else {
         Eval::Reject(Reject::BadCrc)
+    }
+}
+
+impl<const N: usize> Deframer for Parser<N> {
+    type Frame<'p> = ParsedFrame<'p>;
+    type Stats = Stats;
+
+    #[inline]
+    fn feed<'p, 'a: 'p>(&'p mut self, input: &'a [u8]) -> Feed<'a, ParsedFrame<'p>> {
+        Parser::feed(self, input)
+    }
+
+    fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    fn take_stats(&mut self) -> Stats {
+        core::mem::take(&mut self.stats)
+    }
+
+    /// Drops a frame in progress, counted as garbage bytes.
+    fn finish(&mut self) {
+        self.reset();
     }
 }
 

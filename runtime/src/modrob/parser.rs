@@ -26,7 +26,7 @@
 //! let mut parser = Parser::new();
 //! assert!(matches!(parser.feed(&[0x00, 0x5a, 0xff]), Feed::Consumed)); // noise
 //! assert!(matches!(parser.feed(&frame[..4]), Feed::Consumed));
-//! let Feed::Message { message: got, remaining } = parser.feed(&frame[4..n]) else { panic!() };
+//! let Feed::Frame { frame: got, remaining } = parser.feed(&frame[4..n]) else { panic!() };
 //! assert_eq!(got, message);
 //! assert!(remaining.is_empty());
 //! assert_eq!(parser.stats().bad_length, 1);
@@ -35,6 +35,7 @@
 
 use super::message::Message;
 use super::uart::{self, Crc8, HEAD_LEN, MAX_FRAME_LEN, SYNC};
+use crate::framing::{Counters, Deframer};
 
 /// What a [`Parser`] accepted and dropped so far.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -54,20 +55,28 @@ pub struct Stats {
     pub dropped: u64,
 }
 
-/// The outcome of [`Parser::feed`].
-#[derive(Debug)]
-#[must_use = "a message and the rest of the input may be in the result"]
-pub enum Feed<'a> {
-    /// All input was consumed; no complete message yet.
-    Consumed,
-    /// A message, and the input after it, which the parser has not looked at yet.
-    Message {
-        /// The message.
-        message: Message,
-        /// The input the parser has not consumed; feed it next.
-        remaining: &'a [u8],
-    },
+impl Counters for Stats {
+    fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// Candidates rejected and messages with reserved values (the bytes they cost are in
+    /// [`Stats::dropped`]).
+    fn dropped(&self) -> u64 {
+        self.crc_failures + self.bad_length + self.decode_errors
+    }
+
+    fn each(&self, f: &mut dyn FnMut(&'static str, u64)) {
+        f("frames", self.frames);
+        f("bytes", self.bytes);
+        f("crc_failures", self.crc_failures);
+        f("bad_length", self.bad_length);
+        f("decode_errors", self.decode_errors);
+        f("dropped_bytes", self.dropped);
+    }
 }
+
+pub use crate::framing::Feed;
 
 /// The push parser: a 14-byte buffer, the CRC to check with, and counters.
 #[derive(Debug, Clone)]
@@ -146,7 +155,7 @@ impl Parser {
     /// Feeds bytes and returns the first complete message, if any, with the input after it.
     ///
     /// Call `feed` again with `remaining` until it returns [`Feed::Consumed`].
-    pub fn feed<'a>(&mut self, mut input: &'a [u8]) -> Feed<'a> {
+    pub fn feed<'a>(&mut self, mut input: &'a [u8]) -> Feed<'a, Message> {
         loop {
             if self.len == 0 {
                 // Searching: skip to the next 0x5A.
@@ -176,8 +185,8 @@ impl Parser {
             self.stats.bytes += take as u64;
             input = rest;
             if let Some(message) = self.settle() {
-                return Feed::Message {
-                    message,
+                return Feed::Frame {
+                    frame: message,
                     remaining: input,
                 };
             }
@@ -188,14 +197,8 @@ impl Parser {
     }
 
     /// Feeds bytes and calls `on_message` for every message they complete; returns how many.
-    pub fn feed_all(&mut self, mut input: &[u8], mut on_message: impl FnMut(Message)) -> usize {
-        let mut n = 0;
-        while let Feed::Message { message, remaining } = self.feed(input) {
-            on_message(message);
-            input = remaining;
-            n += 1;
-        }
-        n
+    pub fn feed_all(&mut self, input: &[u8], on_message: impl FnMut(Message)) -> usize {
+        Deframer::feed_all(self, input, on_message)
     }
 
     /// Judges the buffered candidate, re-scanning after rejections, until it needs more bytes
@@ -257,5 +260,27 @@ impl Parser {
         self.stats.dropped += skip as u64;
         self.buf.copy_within(n + skip..self.len, 0);
         self.len -= n + skip;
+    }
+}
+
+impl Deframer for Parser {
+    type Frame<'p> = Message;
+    type Stats = Stats;
+
+    #[inline]
+    fn feed<'p, 'a: 'p>(&'p mut self, input: &'a [u8]) -> Feed<'a, Message> {
+        Parser::feed(self, input)
+    }
+
+    fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    fn take_stats(&mut self) -> Stats {
+        core::mem::take(&mut self.stats)
+    }
+
+    fn finish(&mut self) {
+        Parser::finish(self);
     }
 }

@@ -46,10 +46,11 @@
 //! ```
 
 use super::counters::TxCounters;
-use super::encode::{assemble, stuff_frame, stuffed_len};
+use super::encode::assemble;
 use super::parser::{Feed, Frame, Parser};
 use super::router::{Decision, Ports, Router};
 use super::{storage_len, EncodeError, Header, FLAG, MAX_PAYLOAD_LEN};
+use crate::hdlc::{stuff_frame, stuffed_len};
 
 /// How frames from one interface are forwarded to another.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

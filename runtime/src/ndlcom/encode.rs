@@ -22,8 +22,9 @@
 
 use core::fmt;
 
-use super::{Header, ESCAPE, FLAG};
+use super::{Header, FLAG};
 use crate::crc::mcrf4xx_digest;
+use crate::hdlc::{escaped_len, stuff};
 
 /// Why a frame could not be encoded. Nothing was written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -70,36 +71,6 @@ impl fmt::Display for EncodeError {
 
 #[cfg(feature = "std")]
 impl std::error::Error for EncodeError {}
-
-/// Whether `b` must be escaped (0x7D or 0x7E).
-#[inline(always)]
-pub(crate) const fn is_special(b: u8) -> bool {
-    b.wrapping_sub(ESCAPE) < 2
-}
-
-/// Bytes `bytes` take once escaped.
-#[inline]
-fn escaped_len(bytes: &[u8]) -> usize {
-    bytes.len() + bytes.iter().filter(|&&b| is_special(b)).count()
-}
-
-/// Calls `emit` with the escaped form of `bytes`, in runs.
-#[inline]
-fn stuff(mut bytes: &[u8], emit: &mut impl FnMut(&[u8])) {
-    while let Some(i) = bytes.iter().position(|&b| is_special(b)) {
-        let (run, rest) = bytes.split_at(i);
-        if !run.is_empty() {
-            emit(run);
-        }
-        if let Some((&b, rest)) = rest.split_first() {
-            emit(&[ESCAPE, b ^ 0x20]);
-            bytes = rest;
-        }
-    }
-    if !bytes.is_empty() {
-        emit(bytes);
-    }
-}
 
 /// Checks the header against the payload parts and returns the payload length.
 fn check(header: &Header, parts: &[&[u8]]) -> Result<usize, EncodeError> {
@@ -158,19 +129,6 @@ impl<'p> Assembled<'p> {
         stuff(&self.fcs, emit);
         emit(&[FLAG]);
     }
-}
-
-/// Encoded length of an unescaped `header | payload | fcs` frame, flags included.
-pub(crate) fn stuffed_len(frame: &[u8]) -> usize {
-    2 + escaped_len(frame)
-}
-
-/// Escapes an unescaped `header | payload | fcs` frame between two flags: re-encoding a
-/// received frame needs no new FCS.
-pub(crate) fn stuff_frame(frame: &[u8], mut emit: impl FnMut(&[u8])) {
-    emit(&[FLAG]);
-    stuff(frame, &mut emit);
-    emit(&[FLAG]);
 }
 
 /// Writes the unescaped `header | payload | fcs` frame into `out` and returns its length.

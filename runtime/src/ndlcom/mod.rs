@@ -30,10 +30,7 @@ pub use encode::{encode, encode_parts, encode_with, encoded_len, EncodeError};
 pub use header::Header;
 pub use parser::{Frame, Parser};
 
-/// Starts and ends every frame.
-pub const FLAG: u8 = 0x7E;
-/// Escapes a 0x7E or 0x7D between the flags; the next byte is XORed with 0x20.
-pub const ESCAPE: u8 = 0x7D;
+pub use crate::hdlc::{ESCAPE, FLAG};
 /// The receiver address of a frame for everyone.
 pub const BROADCAST: u8 = 0xFF;
 /// The largest payload.

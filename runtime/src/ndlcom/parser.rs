@@ -31,10 +31,11 @@
 //! assert_eq!(parser.stats().truncated, 2); // the noise, and the frame the first `1` began
 //! ```
 
-use super::encode::is_special;
 use super::{Header, ESCAPE, FCS_LEN, FLAG, MAX_PAYLOAD_LEN};
 use crate::bump;
 use crate::crc::mcrf4xx;
+use crate::framing::{wide, Counters, Deframer};
+use crate::hdlc::is_special;
 
 /// What a [`Parser`] accepted and dropped so far.
 ///
@@ -76,20 +77,27 @@ impl Stats {
     }
 }
 
-/// The outcome of [`Parser::feed`].
-#[derive(Debug)]
-#[must_use = "a frame and the rest of the input may be in the result"]
-pub enum Feed<'p, 'a> {
-    /// All input was consumed; no complete frame yet.
-    Consumed,
-    /// A frame, and the input after it, which the parser has not looked at yet.
-    Frame {
-        /// The frame, borrowed from the parser until the next `feed`.
-        frame: Frame<'p>,
-        /// The input the parser has not consumed; feed it next.
-        remaining: &'a [u8],
-    },
+impl Counters for Stats {
+    fn frames(&self) -> u64 {
+        wide(self.frames)
+    }
+
+    /// Every drop, failed FCS included.
+    fn dropped(&self) -> u64 {
+        wide(Stats::dropped(self).wrapping_add(self.crc_failures))
+    }
+
+    fn each(&self, f: &mut dyn FnMut(&'static str, u64)) {
+        f("frames", wide(self.frames));
+        f("bytes", wide(self.bytes));
+        f("crc_failures", wide(self.crc_failures));
+        f("truncated", wide(self.truncated));
+        f("oversize", wide(self.oversize));
+        f("bad_escape", wide(self.bad_escape));
+    }
 }
+
+pub use crate::framing::Feed;
 
 /// A received frame whose FCS checked: a view of the unescaped header, payload and FCS.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -276,7 +284,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
     ///
     /// Call `feed` again with `remaining` until it returns [`Feed::Consumed`]. The frame stays
     /// valid until the next call.
-    pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'p, 'a> {
+    pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'a, Frame<'p>> {
         while let Some((&b, rest)) = input.split_first() {
             if b == FLAG {
                 bump(&mut self.stats.bytes, 1);
@@ -393,7 +401,7 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
         ok
     }
 
-    fn hand_out<'p, 'a: 'p>(&'p mut self, remaining: &'a [u8]) -> Feed<'p, 'a> {
+    fn hand_out<'p, 'a: 'p>(&'p mut self, remaining: &'a [u8]) -> Feed<'a, Frame<'p>> {
         let len = self.len;
         self.restart();
         let bytes = self.buf.as_ref().get(..len).unwrap_or_default();
@@ -402,15 +410,35 @@ impl<S: AsRef<[u8]> + AsMut<[u8]>> Parser<S> {
             remaining,
         }
     }
+}
 
+impl<S: AsRef<[u8]> + AsMut<[u8]> + 'static> Parser<S> {
     /// Feeds bytes and calls `on_frame` for every frame they complete; returns how many.
-    pub fn feed_all(&mut self, mut input: &[u8], mut on_frame: impl FnMut(Frame<'_>)) -> usize {
-        let mut n = 0;
-        while let Feed::Frame { frame, remaining } = self.feed(input) {
-            on_frame(frame);
-            input = remaining;
-            n += 1;
-        }
-        n
+    pub fn feed_all(&mut self, input: &[u8], on_frame: impl FnMut(Frame<'_>)) -> usize {
+        Deframer::feed_all(self, input, on_frame)
+    }
+}
+
+/// A parser on storage it owns (an array, a `Box<[u8]>`) is a [`Deframer`]; one on borrowed
+/// storage has the same methods but not the trait.
+impl<S: AsRef<[u8]> + AsMut<[u8]> + 'static> Deframer for Parser<S> {
+    type Frame<'p> = Frame<'p>;
+    type Stats = Stats;
+
+    #[inline]
+    fn feed<'p, 'a: 'p>(&'p mut self, input: &'a [u8]) -> Feed<'a, Frame<'p>> {
+        Parser::feed(self, input)
+    }
+
+    fn stats(&self) -> &Stats {
+        &self.stats
+    }
+
+    fn take_stats(&mut self) -> Stats {
+        core::mem::take(&mut self.stats)
+    }
+
+    fn finish(&mut self) {
+        Parser::finish(self);
     }
 }

@@ -8,6 +8,7 @@
 //! - [`block`]: the block, its word addressing and the typed write capabilities generated
 //!   register maps use ([`OutWriter`] for a node's own out areas, [`InWriter`] for the master);
 //! - [`frame`]: our frame format for software links, byte by byte;
+//! - [`stream`]: those frames on a byte stream (serial, pty, TCP), delimited by flags;
 //! - [`node`]: the node engine: master election, ring and register discovery, sync delays,
 //!   DATA handling, the watchdog, double buffering, the side channel and the counters.
 //!
@@ -16,6 +17,7 @@
 pub mod block;
 pub mod frame;
 pub mod node;
+pub mod stream;
 
 pub use block::{Area, Block, InWriter, NodeId, OutWriter};
 pub use frame::{Command, FrameError, Repr};

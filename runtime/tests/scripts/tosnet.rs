@@ -4,6 +4,11 @@
 //! same bytes (CRC included when the CRC was good); `parse` accepts exactly the frames whose
 //! CRC leaves residue 0 and that `parse_unchecked` accepts.
 //!
+//! `check_stream`: the first byte picks a chunk size, the rest is fed in chunks of it to the
+//! byte-stream parser. Checked: no panic; every byte is counted; the frames do not depend on
+//! the chunking; each is 2 to 64 bytes long; each re-encodes and parses back to itself; no more
+//! CRC failures than frames.
+//!
 //! `check_node`: the input is a script for one node; each operation's first byte picks receive
 //! (a frame whose CRC is optionally fixed up, so that valid frames get through), poll (advance
 //! the clock), commit, or queue a side-channel message. Checked: no panic; nothing handed out
@@ -12,7 +17,9 @@
 //! CRC and one forwarded from a broken frame has a broken CRC; the packet counter counts every
 //! frame received.
 
+use ferrolink_runtime::framing::Deframer;
 use ferrolink_runtime::tosnet::frame::{crc_ok, seal, Repr, MAX_FRAME_LEN};
+use ferrolink_runtime::tosnet::stream;
 use ferrolink_runtime::tosnet::{Config, Node, Role};
 
 pub fn check_frame(data: &[u8]) {
@@ -28,6 +35,36 @@ pub fn check_frame(data: &[u8]) {
             assert_eq!(buf[..len], data[..]);
         }
         assert_eq!(buf[len], 0xa5, "wrote past the frame");
+    }
+}
+
+fn stream_frames(data: &[u8], chunk: usize) -> (Vec<Vec<u8>>, stream::Stats) {
+    let mut parser = stream::Parser::<64>::new();
+    let mut frames = Vec::new();
+    for piece in data.chunks(chunk.max(1)) {
+        parser.feed_all(piece, |f| frames.push(f.to_vec()));
+    }
+    (frames, *parser.stats())
+}
+
+pub fn check_stream(data: &[u8]) {
+    let Some((&chunk, data)) = data.split_first() else {
+        return;
+    };
+    let (frames, stats) = stream_frames(data, usize::from(chunk));
+    assert_eq!(stats.bytes, data.len());
+    assert_eq!(stats.frames, frames.len());
+    assert!(stats.crc_failures <= stats.frames);
+    assert_eq!(
+        stream_frames(data, data.len()).0,
+        frames,
+        "chunking changed the frames"
+    );
+    for frame in &frames {
+        assert!((2..=64).contains(&frame.len()), "{frame:?}");
+        let mut wire = vec![0u8; stream::encoded_len(frame)];
+        let n = stream::encode(frame, &mut wire).expect("sized by encoded_len");
+        assert_eq!(stream_frames(&wire[..n], n).0, std::slice::from_ref(frame));
     }
 }
 
