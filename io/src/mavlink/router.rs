@@ -16,16 +16,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
-use ferrolink_runtime::mavlink::router::{LinkConfig, LinkCounters, Router, MAX_LINKS};
+use ferrolink_runtime::mavlink::router::{Daemon, LinkConfig, LinkCounters, MAX_LINKS};
 use ferrolink_runtime::mavlink::MessageMeta;
 use serde_json::json;
 
 use super::config::EndpointConfig;
 use super::{tlog, unix_us};
 use crate::link::{self, Event, PeerId, Sender};
-
-/// Route and source table sizes of the daemon.
-type Daemon = Router<MAX_LINKS, 512, 256, 256>;
 
 /// What the router daemon does.
 #[derive(Debug, Clone, Default)]
@@ -203,7 +200,7 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
         None => None,
     };
     let state = Arc::new(Mutex::new(State {
-        router: Box::new(Router::new(config.table)),
+        router: Box::new(Daemon::new(config.table)),
         link_configs: config
             .endpoints
             .iter()

@@ -1,27 +1,8 @@
-//! What MAVLink 1 and 2 frames share: the addressing header, the checksum, the emit path, and a
-//! view over a frame of either version.
+//! A frame of either version ([`AnyFrame`]), and which version a byte starts.
 
-use super::error::{EncodeError, FrameError};
-use super::{v1, v2, Dialect, PayloadBuf, UnknownMessageId, MAX_PAYLOAD_LEN};
-use crate::crc::mcrf4xx_with;
-
-/// The sender fields of a frame header: what an encoder needs besides the message.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub struct Header {
-    /// Sequence number; a sender increments it per frame, wrapping at 255.
-    pub seq: u8,
-    /// Id of the sending system.
-    pub sysid: u8,
-    /// Id of the sending component.
-    pub compid: u8,
-}
-
-impl Header {
-    /// A header with the given sequence number, system id and component id.
-    pub const fn new(seq: u8, sysid: u8, compid: u8) -> Self {
-        Self { seq, sysid, compid }
-    }
-}
+use super::error::FrameError;
+use super::layout::Header;
+use super::{v1, v2, Dialect, UnknownMessageId};
 
 /// A MAVLink wire-format version.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -223,120 +204,6 @@ pub(crate) const fn is_magic(byte: u8) -> bool {
     byte.wrapping_sub(v2::MAGIC) < 2
 }
 
-/// The checksum of a whole frame buffer: `body` is the frame from the magic byte to the end of
-/// the payload. One pass over the body, then CRC_EXTRA.
-///
-/// Out of line: the checksum kernel is large, and kept apart it lets the parser's candidate
-/// checks inline into `feed` (measured: 24.5 to 23 ns per frame of the telemetry stream).
-#[inline(never)]
-pub(crate) fn body_checksum(body: &[u8], crc_extra: u8) -> u16 {
-    mcrf4xx_with(body.get(1..).unwrap_or_default(), Some(crc_extra))
-}
-
-/// Reads a little-endian `u16` at `at`, or 0 if `bytes` is too short.
-#[inline]
-pub(crate) fn le_u16(bytes: &[u8], at: usize) -> u16 {
-    match bytes.get(at..).and_then(|b| b.first_chunk::<2>()) {
-        Some(b) => u16::from_le_bytes(*b),
-        None => 0,
-    }
-}
-
-/// Writes `head | payload | checksum` to the start of `out`, after checking that `reserve` more
-/// bytes fit behind the frame. `head[1]` must already hold the payload length. Returns the frame
-/// length (without `reserve`). Writes nothing on error.
-pub(crate) fn emit<const H: usize>(
-    out: &mut [u8],
-    head: [u8; H],
-    payload: &[u8],
-    crc_extra: u8,
-    reserve: usize,
-) -> Result<usize, EncodeError> {
-    if payload.len() > MAX_PAYLOAD_LEN {
-        return Err(EncodeError::PayloadTooLong);
-    }
-    let total = H + payload.len() + 2;
-    let needed = total + reserve;
-    if out.len() < needed {
-        return Err(EncodeError::BufferTooSmall { needed });
-    }
-    let Some((body, c)) = out
-        .get_mut(..total)
-        .and_then(|frame| frame.split_at_mut_checked(H + payload.len()))
-    else {
-        return Err(EncodeError::BufferTooSmall { needed });
-    };
-    let Some((h, p)) = body.split_first_chunk_mut::<H>() else {
-        return Err(EncodeError::BufferTooSmall { needed });
-    };
-    *h = head;
-    p.copy_from_slice(payload);
-    let crc = body_checksum(body, crc_extra);
-    c.copy_from_slice(&crc.to_le_bytes());
-    Ok(total)
-}
-
-/// Encodes a message's payload with `fill` and frames it.
-///
-/// `send_len` picks how many payload bytes go on the wire (MAVLink 2 truncates, MAVLink 1 keeps
-/// the base fields); it may return more than it was given, and the extra bytes are zeros.
-/// `make_head` builds the header for the chosen length.
-///
-/// When `out` has room for the largest possible frame, the payload is encoded in place and bytes
-/// of `out` past the returned length may be overwritten (scratch space). Otherwise the payload is
-/// encoded on the stack and copied, and nothing is written on error.
-pub(crate) fn emit_with<const H: usize>(
-    out: &mut [u8],
-    fill: impl FnOnce(&mut PayloadBuf) -> usize,
-    send_len: impl FnOnce(&[u8]) -> usize,
-    make_head: impl FnOnce(u8) -> [u8; H],
-    crc_extra: u8,
-    reserve: usize,
-) -> Result<usize, EncodeError> {
-    let room = H + MAX_PAYLOAD_LEN + 2 + reserve;
-    if out.len() >= room {
-        return emit_in_place(out, fill, send_len, make_head, crc_extra)
-            .ok_or(EncodeError::BufferTooSmall { needed: room });
-    }
-    let mut p: PayloadBuf = [0; MAX_PAYLOAD_LEN];
-    let n = fill(&mut p).min(MAX_PAYLOAD_LEN);
-    let len = send_len(p.get(..n).unwrap_or_default()).min(MAX_PAYLOAD_LEN);
-    if let Some(extra) = p.get_mut(n..len) {
-        extra.fill(0);
-    }
-    emit(
-        out,
-        make_head(len as u8),
-        p.get(..len).unwrap_or_default(),
-        crc_extra,
-        reserve,
-    )
-}
-
-/// The in-place half of [`emit_with`]; `out` must have room for the largest frame.
-fn emit_in_place<const H: usize>(
-    out: &mut [u8],
-    fill: impl FnOnce(&mut PayloadBuf) -> usize,
-    send_len: impl FnOnce(&[u8]) -> usize,
-    make_head: impl FnOnce(u8) -> [u8; H],
-    crc_extra: u8,
-) -> Option<usize> {
-    let (h, rest) = out.split_first_chunk_mut::<H>()?;
-    let (p, _) = rest.split_first_chunk_mut::<MAX_PAYLOAD_LEN>()?;
-    let n = fill(p).min(MAX_PAYLOAD_LEN);
-    let len = send_len(p.get(..n).unwrap_or_default()).min(MAX_PAYLOAD_LEN);
-    if let Some(extra) = p.get_mut(n..len) {
-        extra.fill(0);
-    }
-    // `len` fits in a byte: it is at most MAX_PAYLOAD_LEN.
-    *h = make_head(len as u8);
-    // Header and payload are contiguous now: one CRC pass over both.
-    let crc = body_checksum(out.get(..H + len).unwrap_or_default(), crc_extra);
-    out.get_mut(H + len..H + len + 2)?
-        .copy_from_slice(&crc.to_le_bytes());
-    Some(H + len + 2)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -350,22 +217,6 @@ mod tests {
         assert_eq!(Version::from_magic(0xFD), Some(Version::V2));
         assert_eq!(Version::from_magic(0x55), None);
         assert_eq!(Version::V2.magic(), 0xFD);
-    }
-
-    #[test]
-    fn emit_writes_nothing_on_error() {
-        let mut out = [0xA5u8; 12];
-        let err = emit(&mut out, [0xFD, 3, 0], &[1, 2, 3], 0, 5).unwrap_err();
-        assert_eq!(err, EncodeError::BufferTooSmall { needed: 13 });
-        let err = emit(&mut out[..7], [0xFD, 3, 0], &[1, 2, 3], 0, 0).unwrap_err();
-        assert_eq!(err, EncodeError::BufferTooSmall { needed: 8 });
-        assert_eq!(out, [0xA5; 12]);
-        let err = emit(&mut out, [0xFD, 0, 0], &[0; 256], 0, 0).unwrap_err();
-        assert_eq!(err, EncodeError::PayloadTooLong);
-        assert_eq!(out, [0xA5; 12]);
-        assert_eq!(emit(&mut out, [0xFD, 3, 0], &[1, 2, 3], 0, 4), Ok(8));
-        assert_eq!(out[..6], [0xFD, 3, 0, 1, 2, 3]);
-        assert_eq!(out[8..], [0xA5; 4]);
     }
 
     #[test]

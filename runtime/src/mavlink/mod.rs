@@ -17,6 +17,7 @@ mod chars;
 mod enums;
 mod error;
 mod frame;
+pub mod layout;
 pub mod parser;
 #[cfg(feature = "signing")]
 pub mod router;
@@ -31,7 +32,8 @@ pub use chars::CharArray;
 #[doc(hidden)]
 pub use enums::fmt_flags;
 pub use error::{EncodeError, FrameError};
-pub use frame::{AnyFrame, Header, Version};
+pub use frame::{AnyFrame, Version};
+pub use layout::Header;
 pub use parser::Parser;
 
 /// The largest MAVLink payload.

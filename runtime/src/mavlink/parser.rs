@@ -38,7 +38,8 @@
 
 use core::fmt;
 
-use super::frame::{body_checksum, is_magic, AnyFrame, Header};
+use super::frame::{is_magic, AnyFrame};
+use super::layout::{body_checksum, Header};
 use super::{find_meta, v1, v2, Dialect, MessageMeta, UnknownMessageId};
 use crate::bump;
 use crate::framing::{wide, Counters, Deframer};

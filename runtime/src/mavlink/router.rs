@@ -1,7 +1,7 @@
 //! The MAVLink routing rules, exact and allocation-free: what an embedded radio runs between two
 //! UARTs and what the `ferrolink mavlink router` daemon runs between sockets.
 //!
-//! A [`Router`] has `L` link slots. Each open link has its own stream [`Parser`], so bytes are
+//! A [`Router`] has `LINKS` link slots. Each open link has its own stream [`Parser`], so bytes are
 //! fed per link with [`Router::receive`], which hands out every frame the link delivered together
 //! with the links it goes to ([`Routed::to`], a bitmask) or why it goes nowhere. The caller sends
 //! [`Routed::bytes`], unchanged, to every link in the mask.
@@ -239,13 +239,13 @@ impl LinkFilter for NoFilter {
     }
 }
 
-/// How one link behaves. `F` is the filter type of the router it is opened on.
+/// How one link behaves. `Rules` is the filter type of the router it is opened on.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct LinkConfig<F = Filter> {
+pub struct LinkConfig<Rules = Filter> {
     /// What the link may deliver.
-    pub inbound: F,
+    pub inbound: Rules,
     /// What may be sent on the link.
-    pub outbound: F,
+    pub outbound: Rules,
     /// Links with the same non-zero group are redundant paths to the same place: they share
     /// routes, and a frame from one is never sent to another.
     pub group: u8,
@@ -400,9 +400,9 @@ pub struct Routed<'a> {
 }
 
 #[derive(Debug, Clone, Default)]
-struct Link<F> {
+struct Link<Rules> {
     open: bool,
-    config: LinkConfig<F>,
+    config: LinkConfig<Rules>,
     verifier: Option<Verifier<SIGNING_STREAMS>>,
     counters: LinkCounters,
 }
@@ -414,11 +414,12 @@ struct Seen {
     used: bool,
 }
 
-/// The router: `L` links, `R` routes, `S` sources and `D` remembered frames for deduplication,
-/// with links filtered by `F` ([`Filter`], or [`NoFilter`] for a device that filters nothing).
+/// The router: `LINKS` links, `ROUTES` routes, `SOURCES` sources and `DEDUP` remembered frames
+/// for deduplication, with links filtered by `Rules` ([`Filter`], or [`NoFilter`] for a device
+/// that filters nothing).
 ///
-/// The defaults suit a small radio; the daemon uses larger tables. `L` is at most
-/// [`MAX_LINKS`]; a larger `L` fails to compile:
+/// The defaults suit a small radio; [`Daemon`] names the PC daemon's sizes. `LINKS` is at most
+/// [`MAX_LINKS`]; a larger `LINKS` fails to compile:
 ///
 /// ```compile_fail
 /// # use ferrolink_runtime::mavlink::router::Router;
@@ -426,26 +427,36 @@ struct Seen {
 /// ```
 #[derive(Debug, Clone)]
 pub struct Router<
-    const L: usize = 4,
-    const R: usize = 32,
-    const S: usize = 32,
-    const D: usize = 64,
-    F = Filter,
+    const LINKS: usize = 4,
+    const ROUTES: usize = 32,
+    const SOURCES: usize = 32,
+    const DEDUP: usize = 64,
+    Rules = Filter,
 > {
-    parsers: [Parser; L],
+    parsers: [Parser; LINKS],
     /// Parser counters already added to the link counters.
-    parsed: [ParserStats; L],
-    state: State<L, R, S, D, F>,
+    parsed: [ParserStats; LINKS],
+    state: State<LINKS, ROUTES, SOURCES, DEDUP, Rules>,
 }
+
+/// The sizes of the router daemon on a PC: every link slot, 512 routes, 256 sources and 256
+/// remembered frames.
+pub type Daemon = Router<MAX_LINKS, 512, 256, 256>;
 
 /// Everything but the parsers, so a frame borrowed from a parser can be routed in place.
 #[derive(Debug, Clone)]
-struct State<const L: usize, const R: usize, const S: usize, const D: usize, F> {
+struct State<
+    const LINKS: usize,
+    const ROUTES: usize,
+    const SOURCES: usize,
+    const DEDUP: usize,
+    Rules,
+> {
     table: &'static [MessageMeta],
-    links: [Link<F>; L],
-    routes: [Option<Route>; R],
-    sources: [Option<SourceCounters>; S],
-    seen: [Seen; D],
+    links: [Link<Rules>; LINKS],
+    routes: [Option<Route>; ROUTES],
+    sources: [Option<SourceCounters>; SOURCES],
+    seen: [Seen; DEDUP],
     seen_next: usize,
     route_ttl_us: u64,
     /// When routes were last checked for their age (they are, at most every 100 ms).
@@ -458,10 +469,15 @@ const EXPIRE_EVERY_US: u64 = 100_000;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
-impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilter>
-    Router<L, R, S, D, F>
+impl<
+        const LINKS: usize,
+        const ROUTES: usize,
+        const SOURCES: usize,
+        const DEDUP: usize,
+        Rules: LinkFilter,
+    > Router<LINKS, ROUTES, SOURCES, DEDUP, Rules>
 {
-    const LINKS_FIT_THE_MASK: () = assert!(L <= MAX_LINKS, "Router<L> needs L <= 64");
+    const LINKS_FIT_THE_MASK: () = assert!(LINKS <= MAX_LINKS, "Router<LINKS> needs LINKS <= 64");
 
     /// A router checking frames against `table` (sorted by id, as a dialect's `META` is), with
     /// no links open.
@@ -470,13 +486,13 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
         let () = Self::LINKS_FIT_THE_MASK;
         Self {
             parsers: core::array::from_fn(|_| Parser::new(table)),
-            parsed: [ParserStats::default(); L],
+            parsed: [ParserStats::default(); LINKS],
             state: State {
                 table,
                 links: core::array::from_fn(|_| Link::default()),
-                routes: [None; R],
-                sources: [None; S],
-                seen: [Seen::default(); D],
+                routes: [None; ROUTES],
+                sources: [None; SOURCES],
+                seen: [Seen::default(); DEDUP],
                 seen_next: 0,
                 route_ttl_us: DEFAULT_ROUTE_TTL_US,
                 expired_at_us: 0,
@@ -495,9 +511,9 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
         self.state.route_ttl_us = ttl;
     }
 
-    /// Opens a link in the first free slot and returns its index, or `None` when all `L` are in
+    /// Opens a link in the first free slot and returns its index, or `None` when all `LINKS` are in
     /// use. Its counters start at zero.
-    pub fn open_link(&mut self, config: LinkConfig<F>) -> Option<usize> {
+    pub fn open_link(&mut self, config: LinkConfig<Rules>) -> Option<usize> {
         let index = self.state.links.iter().position(|l| !l.open)?;
         let parser = self.parsers.get_mut(index)?;
         *parser = Parser::new(self.state.table).pass_unknown_ids(!config.drop_unknown_ids);
@@ -534,7 +550,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
     }
 
     /// The configuration of link `index`.
-    pub fn link_config(&self, index: usize) -> Option<&LinkConfig<F>> {
+    pub fn link_config(&self, index: usize) -> Option<&LinkConfig<Rules>> {
         self.state.links.get(index).map(|l| &l.config)
     }
 
@@ -616,8 +632,13 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
     }
 }
 
-impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilter>
-    State<L, R, S, D, F>
+impl<
+        const LINKS: usize,
+        const ROUTES: usize,
+        const SOURCES: usize,
+        const DEDUP: usize,
+        Rules: LinkFilter,
+    > State<LINKS, ROUTES, SOURCES, DEDUP, Rules>
 {
     fn expire(&mut self, now_us: u64) {
         if self.route_ttl_us == 0 {
@@ -728,15 +749,15 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
             .seen
             .iter()
             .any(|s| s.used && s.key == key && now_us.saturating_sub(s.at_us) <= window);
-        if !hit && D > 0 {
-            if let Some(slot) = self.seen.get_mut(self.seen_next % D) {
+        if !hit && DEDUP > 0 {
+            if let Some(slot) = self.seen.get_mut(self.seen_next % DEDUP) {
                 *slot = Seen {
                     key,
                     at_us: now_us,
                     used: true,
                 };
             }
-            self.seen_next = (self.seen_next + 1) % D;
+            self.seen_next = (self.seen_next + 1) % DEDUP;
         }
         hit
     }
@@ -783,7 +804,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
         } else {
             system
         };
-        (0..L)
+        (0..LINKS)
             .filter(|i| mask & (1 << i) != 0)
             .fold(mask, |m, i| m | self.group_mask(i))
     }
@@ -843,7 +864,7 @@ impl<const L: usize, const R: usize, const S: usize, const D: usize, F: LinkFilt
     }
 }
 
-impl<F> Link<F> {
+impl<Rules> Link<Rules> {
     /// The signing checks of a link that requires signing.
     fn check_signature(&mut self, frame: &ParsedFrame<'_>, rx_us: u64) -> Result<(), DropReason> {
         let Some(verifier) = &mut self.verifier else {

@@ -19,16 +19,16 @@
 //! assert!(frame.check_crc(50));
 //! ```
 
-use super::error::{EncodeError, FrameError};
-use super::frame::{body_checksum, emit, emit_with, le_u16};
-use super::{Dialect, Header, Message, UnknownMessageId, MAX_PAYLOAD_LEN};
+use super::error::EncodeError;
+use super::layout::{emit, emit_with, Layout, View};
+use super::Dialect;
+use super::{Header, Message, MAX_PAYLOAD_LEN};
 
 /// The first byte of every MAVLink 1 frame.
 pub const MAGIC: u8 = 0xFE;
 /// Header length, magic byte included.
 pub const HEADER_LEN: usize = 6;
-/// Checksum length.
-pub const CHECKSUM_LEN: usize = 2;
+pub use super::layout::CHECKSUM_LEN;
 /// The longest frame.
 pub const MAX_FRAME_LEN: usize = HEADER_LEN + MAX_PAYLOAD_LEN + CHECKSUM_LEN;
 /// The shortest frame: an empty payload.
@@ -36,170 +36,27 @@ pub const MIN_FRAME_LEN: usize = HEADER_LEN + CHECKSUM_LEN;
 /// The largest message id MAVLink 1 can carry.
 pub const MAX_MSG_ID: u32 = 0xFF;
 
-/// Byte positions of the header fields.
-mod field {
-    pub const LEN: usize = 1;
-    pub const SEQ: usize = 2;
-    pub const SYSID: usize = 3;
-    pub const COMPID: usize = 4;
-    pub const MSG_ID: usize = 5;
-    pub const PAYLOAD: usize = 6;
-}
+/// MAVLink 1's header layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct V1;
 
-/// A zero-copy view of a MAVLink 1 frame in a byte buffer.
-///
-/// The buffer may be longer than the frame; the frame's length comes from its header. Accessors
-/// never panic: after [`new_checked`](Self::new_checked) succeeds they return the frame's fields,
-/// and on an unchecked view over a short buffer they return zeros and empty slices.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Frame<T: AsRef<[u8]>> {
-    buffer: T,
-}
-
-impl<T: AsRef<[u8]>> Frame<T> {
-    /// Wraps `buffer` without checking it.
-    #[inline]
-    pub const fn new_unchecked(buffer: T) -> Self {
-        Self { buffer }
-    }
-
-    /// Wraps `buffer` after checking the magic byte and that the whole frame the header
-    /// announces is present.
-    #[inline]
-    pub fn new_checked(buffer: T) -> Result<Self, FrameError> {
-        let frame = Self::new_unchecked(buffer);
-        frame.check_len()?;
-        Ok(frame)
-    }
-
-    /// Checks the magic byte and that the buffer holds the whole frame.
-    #[inline]
-    pub fn check_len(&self) -> Result<(), FrameError> {
-        let bytes = self.buffer.as_ref();
-        match bytes.first() {
-            None => Err(FrameError::Truncated),
-            Some(&b) if b != MAGIC => Err(FrameError::BadMagic),
-            Some(_) if bytes.len() < HEADER_LEN || bytes.len() < self.frame_len() => {
-                Err(FrameError::Truncated)
-            }
-            Some(_) => Ok(()),
-        }
-    }
-
-    /// The underlying buffer.
-    #[inline]
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
+impl Layout for V1 {
+    const MAGIC: u8 = MAGIC;
+    const HEADER_LEN: usize = HEADER_LEN;
+    const SEQ: usize = 2;
+    const SYSID: usize = 3;
+    const COMPID: usize = 4;
+    const MSG_ID: usize = 5;
+    const MSG_ID_LEN: usize = 1;
 
     #[inline(always)]
-    fn byte(&self, at: usize) -> u8 {
-        self.buffer.as_ref().get(at).copied().unwrap_or(0)
-    }
-
-    /// The payload length the header announces.
-    #[inline]
-    pub fn payload_len(&self) -> u8 {
-        self.byte(field::LEN)
-    }
-
-    /// The sequence number.
-    #[inline]
-    pub fn seq(&self) -> u8 {
-        self.byte(field::SEQ)
-    }
-
-    /// The sending system id.
-    #[inline]
-    pub fn sysid(&self) -> u8 {
-        self.byte(field::SYSID)
-    }
-
-    /// The sending component id.
-    #[inline]
-    pub fn compid(&self) -> u8 {
-        self.byte(field::COMPID)
-    }
-
-    /// The sender fields.
-    #[inline]
-    pub fn header(&self) -> Header {
-        Header::new(self.seq(), self.sysid(), self.compid())
-    }
-
-    /// The message id (8 bits).
-    #[inline]
-    pub fn msg_id(&self) -> u32 {
-        u32::from(self.byte(field::MSG_ID))
-    }
-
-    #[inline]
-    fn body_len(&self) -> usize {
-        HEADER_LEN + usize::from(self.payload_len())
-    }
-
-    /// Length of the whole frame as the header announces.
-    #[inline]
-    pub fn frame_len(&self) -> usize {
-        self.body_len() + CHECKSUM_LEN
-    }
-
-    /// The payload.
-    #[inline]
-    pub fn payload(&self) -> &[u8] {
-        self.buffer
-            .as_ref()
-            .get(field::PAYLOAD..self.body_len())
-            .unwrap_or_default()
-    }
-
-    /// The checksum as sent.
-    #[inline]
-    pub fn checksum(&self) -> u16 {
-        le_u16(self.buffer.as_ref(), self.body_len())
-    }
-
-    /// The checksum the frame should carry for a message with `crc_extra`.
-    #[inline]
-    pub fn compute_checksum(&self, crc_extra: u8) -> u16 {
-        let body = self.buffer.as_ref().get(..self.body_len());
-        body_checksum(body.unwrap_or_default(), crc_extra)
-    }
-
-    /// Whether the checksum matches for a message with `crc_extra`.
-    #[inline]
-    pub fn check_crc(&self, crc_extra: u8) -> bool {
-        self.buffer.as_ref().len() >= self.frame_len()
-            && self.checksum() == self.compute_checksum(crc_extra)
-    }
-
-    /// The frame's bytes: exactly [`frame_len`](Self::frame_len) bytes, or the whole buffer if
-    /// it is shorter (only possible for unchecked views).
-    #[inline]
-    pub fn as_bytes(&self) -> &[u8] {
-        let bytes = self.buffer.as_ref();
-        bytes.get(..self.frame_len()).unwrap_or(bytes)
-    }
-
-    /// Decodes the payload as a message of dialect `D`. Extension fields, which MAVLink 1 does
-    /// not carry, are zero.
-    #[inline]
-    pub fn decode<D: Dialect>(&self) -> Result<D, UnknownMessageId> {
-        D::decode(self.msg_id(), self.payload())
-    }
-
-    /// Decodes like `decode`, into `out` (see [`Dialect::decode_into`]).
-    #[inline]
-    pub fn decode_into<D: Dialect>(&self, out: &mut D) -> Result<(), UnknownMessageId> {
-        D::decode_into(self.msg_id(), self.payload(), out)
-    }
-
-    /// Decodes the payload as message `M`, whatever the frame's id (check it first).
-    #[inline]
-    pub fn decode_message<M: Message>(&self) -> M {
-        M::decode(self.payload())
+    fn trailer_len(_: &[u8]) -> usize {
+        0
     }
 }
+
+/// A zero-copy view of a MAVLink 1 frame in a byte buffer (see [`View`] for its accessors).
+pub type Frame<T> = View<T, V1>;
 
 #[inline]
 fn make_head(header: Header, msg_id: u8, len: u8) -> [u8; HEADER_LEN] {
@@ -294,6 +151,7 @@ fn encode_with(
 mod tests {
     use super::*;
     use crate::mavlink::testing::{golden_heartbeat, hex, Big, ExtMsg, TestDialect, GOLDEN_V1};
+    use crate::mavlink::FrameError;
 
     const HB: Header = Header::new(0, 1, 1);
 

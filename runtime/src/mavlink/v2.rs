@@ -22,16 +22,15 @@
 //! assert_eq!(frame.payload(), &payload);
 //! ```
 
-use super::error::{EncodeError, FrameError};
-use super::frame::{body_checksum, emit, emit_with, le_u16};
-use super::{Dialect, Header, Message, UnknownMessageId, MAX_PAYLOAD_LEN};
+use super::error::EncodeError;
+use super::layout::{emit, emit_with, Layout, View};
+use super::{Dialect, Header, Message, MAX_PAYLOAD_LEN};
 
 /// The first byte of every MAVLink 2 frame.
 pub const MAGIC: u8 = 0xFD;
 /// Header length, magic byte included.
 pub const HEADER_LEN: usize = 10;
-/// Checksum length.
-pub const CHECKSUM_LEN: usize = 2;
+pub use super::layout::CHECKSUM_LEN;
 /// Length of the signature trailer: link id (1), timestamp (6), signature (6).
 pub const SIGNATURE_LEN: usize = 13;
 /// The longest unsigned frame.
@@ -48,87 +47,48 @@ pub const INCOMPAT_SIGNED: u8 = 0x01;
 /// dropped.
 pub const KNOWN_INCOMPAT_FLAGS: u8 = INCOMPAT_SIGNED;
 
-/// Byte positions of the header fields.
-mod field {
-    use core::ops::Range;
+/// MAVLink 2's header layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub struct V2;
 
-    pub const LEN: usize = 1;
-    pub const INCOMPAT: usize = 2;
-    pub const COMPAT: usize = 3;
-    pub const SEQ: usize = 4;
-    pub const SYSID: usize = 5;
-    pub const COMPID: usize = 6;
-    pub const MSG_ID: Range<usize> = 7..10;
-    pub const PAYLOAD: usize = 10;
-}
+/// Byte positions of the header fields only MAVLink 2 has.
+const INCOMPAT: usize = 2;
+const COMPAT: usize = 3;
 
-/// A zero-copy view of a MAVLink 2 frame in a byte buffer.
-///
-/// The buffer may be longer than the frame; the frame's length comes from its header. Accessors
-/// never panic: after [`new_checked`](Self::new_checked) succeeds they return the frame's fields,
-/// and on an unchecked view over a short buffer they return zeros and empty slices.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Frame<T: AsRef<[u8]>> {
-    buffer: T,
-}
-
-impl<T: AsRef<[u8]>> Frame<T> {
-    /// Wraps `buffer` without checking it.
-    #[inline]
-    pub const fn new_unchecked(buffer: T) -> Self {
-        Self { buffer }
-    }
-
-    /// Wraps `buffer` after checking the magic byte and that the whole frame the header
-    /// announces (signature included) is present.
-    #[inline]
-    pub fn new_checked(buffer: T) -> Result<Self, FrameError> {
-        let frame = Self::new_unchecked(buffer);
-        frame.check_len()?;
-        Ok(frame)
-    }
-
-    /// Checks the magic byte and that the buffer holds the whole frame.
-    #[inline]
-    pub fn check_len(&self) -> Result<(), FrameError> {
-        let bytes = self.buffer.as_ref();
-        match bytes.first() {
-            None => Err(FrameError::Truncated),
-            Some(&b) if b != MAGIC => Err(FrameError::BadMagic),
-            Some(_) if bytes.len() < HEADER_LEN || bytes.len() < self.frame_len() => {
-                Err(FrameError::Truncated)
-            }
-            Some(_) => Ok(()),
-        }
-    }
-
-    /// The underlying buffer.
-    #[inline]
-    pub fn into_inner(self) -> T {
-        self.buffer
-    }
+impl Layout for V2 {
+    const MAGIC: u8 = MAGIC;
+    const HEADER_LEN: usize = HEADER_LEN;
+    const SEQ: usize = 4;
+    const SYSID: usize = 5;
+    const COMPID: usize = 6;
+    const MSG_ID: usize = 7;
+    const MSG_ID_LEN: usize = 3;
 
     #[inline(always)]
-    fn byte(&self, at: usize) -> u8 {
-        self.buffer.as_ref().get(at).copied().unwrap_or(0)
+    fn trailer_len(bytes: &[u8]) -> usize {
+        match bytes.get(INCOMPAT) {
+            Some(&flags) if flags & INCOMPAT_SIGNED != 0 => SIGNATURE_LEN,
+            _ => 0,
+        }
     }
+}
 
-    /// The payload length the header announces.
-    #[inline]
-    pub fn payload_len(&self) -> u8 {
-        self.byte(field::LEN)
-    }
+/// A zero-copy view of a MAVLink 2 frame in a byte buffer (see [`View`] for its accessors; the
+/// payload may be truncated, see [`View::decode`]).
+pub type Frame<T> = View<T, V2>;
 
+/// What only MAVLink 2 frames carry: flags and the signature.
+impl<T: AsRef<[u8]>> View<T, V2> {
     /// The incompat flags.
     #[inline]
     pub fn incompat_flags(&self) -> u8 {
-        self.byte(field::INCOMPAT)
+        self.byte(INCOMPAT)
     }
 
     /// The compat flags (ignored by receivers).
     #[inline]
     pub fn compat_flags(&self) -> u8 {
-        self.byte(field::COMPAT)
+        self.byte(COMPAT)
     }
 
     /// Whether any incompat flag other than the known ones is set; such a frame must be dropped.
@@ -143,89 +103,13 @@ impl<T: AsRef<[u8]>> Frame<T> {
         self.incompat_flags() & INCOMPAT_SIGNED != 0
     }
 
-    /// The sequence number.
-    #[inline]
-    pub fn seq(&self) -> u8 {
-        self.byte(field::SEQ)
-    }
-
-    /// The sending system id.
-    #[inline]
-    pub fn sysid(&self) -> u8 {
-        self.byte(field::SYSID)
-    }
-
-    /// The sending component id.
-    #[inline]
-    pub fn compid(&self) -> u8 {
-        self.byte(field::COMPID)
-    }
-
-    /// The sender fields.
-    #[inline]
-    pub fn header(&self) -> Header {
-        Header::new(self.seq(), self.sysid(), self.compid())
-    }
-
-    /// The message id (24 bits).
-    #[inline]
-    pub fn msg_id(&self) -> u32 {
-        match self.buffer.as_ref().get(field::MSG_ID) {
-            Some(&[a, b, c]) => u32::from_le_bytes([a, b, c, 0]),
-            _ => 0,
-        }
-    }
-
-    /// Length of the frame from the magic byte to the end of the payload.
-    #[inline]
-    fn body_len(&self) -> usize {
-        HEADER_LEN + usize::from(self.payload_len())
-    }
-
-    /// Length of the whole frame, signature included, as the header announces.
-    #[inline]
-    pub fn frame_len(&self) -> usize {
-        let signature = if self.is_signed() { SIGNATURE_LEN } else { 0 };
-        self.body_len() + CHECKSUM_LEN + signature
-    }
-
-    /// The payload as sent: possibly truncated, see [`Frame::decode`].
-    #[inline]
-    pub fn payload(&self) -> &[u8] {
-        self.buffer
-            .as_ref()
-            .get(field::PAYLOAD..self.body_len())
-            .unwrap_or_default()
-    }
-
-    /// The checksum as sent.
-    #[inline]
-    pub fn checksum(&self) -> u16 {
-        le_u16(self.buffer.as_ref(), self.body_len())
-    }
-
-    /// The checksum the frame should carry for a message with `crc_extra`.
-    #[inline]
-    pub fn compute_checksum(&self, crc_extra: u8) -> u16 {
-        let body = self.buffer.as_ref().get(..self.body_len());
-        body_checksum(body.unwrap_or_default(), crc_extra)
-    }
-
-    /// Whether the checksum matches for a message with `crc_extra`.
-    #[inline]
-    pub fn check_crc(&self, crc_extra: u8) -> bool {
-        self.buffer.as_ref().len() >= self.body_len() + CHECKSUM_LEN
-            && self.checksum() == self.compute_checksum(crc_extra)
-    }
-
     /// The 13-byte signature trailer (link id, timestamp, signature), if the frame is signed.
     #[inline]
     pub fn signature_trailer(&self) -> Option<&[u8; SIGNATURE_LEN]> {
         if !self.is_signed() {
             return None;
         }
-        self.buffer
-            .as_ref()
+        self.bytes()
             .get(self.body_len() + CHECKSUM_LEN..)?
             .first_chunk()
     }
@@ -255,33 +139,6 @@ impl<T: AsRef<[u8]>> Frame<T> {
             sig.copy_from_slice(&t[7..]);
             sig
         })
-    }
-
-    /// The frame's bytes: exactly [`frame_len`](Self::frame_len) bytes, or the whole buffer if
-    /// it is shorter (only possible for unchecked views).
-    #[inline]
-    pub fn as_bytes(&self) -> &[u8] {
-        let bytes = self.buffer.as_ref();
-        bytes.get(..self.frame_len()).unwrap_or(bytes)
-    }
-
-    /// Decodes the payload as a message of dialect `D`. A truncated payload is zero-filled and a
-    /// longer one (from a newer dialect) is cut.
-    #[inline]
-    pub fn decode<D: Dialect>(&self) -> Result<D, UnknownMessageId> {
-        D::decode(self.msg_id(), self.payload())
-    }
-
-    /// Decodes like `decode`, into `out` (see [`Dialect::decode_into`]).
-    #[inline]
-    pub fn decode_into<D: Dialect>(&self, out: &mut D) -> Result<(), UnknownMessageId> {
-        D::decode_into(self.msg_id(), self.payload(), out)
-    }
-
-    /// Decodes the payload as message `M`, whatever the frame's id (check it first).
-    #[inline]
-    pub fn decode_message<M: Message>(&self) -> M {
-        M::decode(self.payload())
     }
 }
 
@@ -406,6 +263,7 @@ mod tests {
     use crate::mavlink::testing::{
         golden_heartbeat, hex, Big, ExtMsg, Heartbeat, TestDialect, GOLDEN_V2,
     };
+    use crate::mavlink::FrameError;
 
     const HB: Header = Header::new(0, 1, 1);
 
