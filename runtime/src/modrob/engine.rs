@@ -135,45 +135,14 @@ use core::fmt;
 use super::dictionary::{Dictionary, Direction};
 use super::message::{CommandKind, Message};
 use super::persist::{self, PersistError, Settings};
+pub use super::persist::{rate_to_mhz, MAX_RATE_HZ, MAX_RATE_MHZ};
 use super::piecewise::Sender;
-
-/// The highest publication rate accepted, in Hz (a 100 µs period).
-pub const MAX_RATE_HZ: f32 = 10_000.0;
-
-/// [`MAX_RATE_HZ`] in millihertz.
-pub const MAX_RATE_MHZ: u32 = 10_000_000;
 
 /// The default spacing of info chunks, in µs.
 pub const DEFAULT_INFO_INTERVAL_US: u64 = 1_000;
 
 /// Microseconds times millihertz in one cycle: a period is `10^9 / mHz` µs.
 const PERIOD_SCALE: u128 = 1_000_000_000;
-
-/// A rate in Hz as the engine holds it, in millihertz: rounded to the nearest mHz, at least
-/// 1 mHz when positive. `None` for a negative, NaN or infinite rate or one above
-/// [`MAX_RATE_HZ`].
-///
-/// ```
-/// use ferrolink_runtime::modrob::engine::rate_to_mhz;
-///
-/// assert_eq!(rate_to_mhz(100.0), Some(100_000));
-/// assert_eq!(rate_to_mhz(1.0 / 3.0), Some(333));
-/// assert_eq!(rate_to_mhz(0.0), Some(0));
-/// assert_eq!(rate_to_mhz(1e-6), Some(1));
-/// assert_eq!(rate_to_mhz(-1.0), None);
-/// assert_eq!(rate_to_mhz(f32::NAN), None);
-/// ```
-pub fn rate_to_mhz(hz: f32) -> Option<u32> {
-    if !(0.0..=MAX_RATE_HZ).contains(&hz) {
-        return None;
-    }
-    if hz == 0.0 {
-        return Some(0);
-    }
-    // Non-negative, so adding one half and truncating rounds to nearest.
-    let mhz = (f64::from(hz) * 1000.0 + 0.5) as u32;
-    Some(mhz.clamp(1, MAX_RATE_MHZ))
-}
 
 /// A rate in millihertz as Hz.
 pub fn mhz_to_hz(mhz: u32) -> f32 {

@@ -40,7 +40,38 @@ use core::fmt;
 use crc::{Crc, CRC_32_ISO_HDLC};
 
 use super::dictionary::Dictionary;
-use super::engine::{rate_to_mhz, MAX_RATE_MHZ};
+
+/// The highest publication rate accepted, in Hz (a 100 µs period).
+pub const MAX_RATE_HZ: f32 = 10_000.0;
+
+/// [`MAX_RATE_HZ`] in millihertz.
+pub const MAX_RATE_MHZ: u32 = 10_000_000;
+
+/// A rate in Hz as the engine holds it, in millihertz: rounded to the nearest mHz, at least
+/// 1 mHz when positive. `None` for a negative, NaN or infinite rate or one above
+/// [`MAX_RATE_HZ`].
+///
+/// ```
+/// use ferrolink_runtime::modrob::engine::rate_to_mhz;
+///
+/// assert_eq!(rate_to_mhz(100.0), Some(100_000));
+/// assert_eq!(rate_to_mhz(1.0 / 3.0), Some(333));
+/// assert_eq!(rate_to_mhz(0.0), Some(0));
+/// assert_eq!(rate_to_mhz(1e-6), Some(1));
+/// assert_eq!(rate_to_mhz(-1.0), None);
+/// assert_eq!(rate_to_mhz(f32::NAN), None);
+/// ```
+pub fn rate_to_mhz(hz: f32) -> Option<u32> {
+    if !(0.0..=MAX_RATE_HZ).contains(&hz) {
+        return None;
+    }
+    if hz == 0.0 {
+        return Some(0);
+    }
+    // Non-negative, so adding one half and truncating rounds to nearest.
+    let mhz = (f64::from(hz) * 1000.0 + 0.5) as u32;
+    Some(mhz.clamp(1, MAX_RATE_MHZ))
+}
 
 /// The first four bytes of an image.
 pub const MAGIC: [u8; 4] = *b"MR1P";
