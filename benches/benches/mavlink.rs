@@ -30,82 +30,10 @@ mod facts {
 /// when `build.rs` could build it.
 #[cfg(c_mavlink)]
 #[allow(unsafe_code)]
-mod c_library {
-    /// The library's `mavlink_heartbeat_t`, `mavlink_attitude_t` and
-    /// `mavlink_file_transfer_protocol_t` are read back only as bytes; these hold them.
-    pub type Heartbeat = [u8; 9];
-    pub type Attitude = [u8; 28];
-    pub type Ftp = [u8; 254];
-
-    // SAFETY: each function reads only the lengths it is given or the fixed sizes its C
-    // signature names (the `[f32; 6]` and `[u8; 251]` arrays, the out structs above, a frame
-    // buffer of at least 280 bytes), writes only its out parameter, and keeps no pointer.
-    unsafe extern "C" {
-        pub safe fn c_encode_heartbeat(
-            out: &mut [u8; 280],
-            seq: u8,
-            ty: u8,
-            autopilot: u8,
-            base_mode: u8,
-            custom_mode: u32,
-            system_status: u8,
-        ) -> usize;
-        pub safe fn c_encode_attitude(
-            out: &mut [u8; 280],
-            seq: u8,
-            time_boot_ms: u32,
-            v: &[f32; 6],
-        ) -> usize;
-        pub safe fn c_encode_ftp(
-            out: &mut [u8; 280],
-            seq: u8,
-            target_network: u8,
-            target_system: u8,
-            target_component: u8,
-            payload: &[u8; 251],
-        ) -> usize;
-        fn c_decode_heartbeat(frame: *const u8, len: usize, out: &mut Heartbeat) -> i32;
-        fn c_decode_attitude(frame: *const u8, len: usize, out: &mut Attitude) -> i32;
-        fn c_decode_ftp(frame: *const u8, len: usize, out: &mut Ftp) -> i32;
-        fn c_checksum(body: *const u8, len: usize, crc_extra: u8) -> u16;
-        fn c_stream(bytes: *const u8, len: usize, sink: extern "C" fn(*const u8)) -> usize;
-    }
-
-    pub use self::{
-        c_encode_attitude as encode_attitude, c_encode_ftp as encode_ftp,
-        c_encode_heartbeat as encode_heartbeat,
-    };
-
-    pub fn decode_heartbeat(frame: &[u8], out: &mut Heartbeat) -> i32 {
-        // SAFETY: `frame` is valid for `frame.len()` bytes.
-        unsafe { c_decode_heartbeat(frame.as_ptr(), frame.len(), out) }
-    }
-
-    pub fn decode_attitude(frame: &[u8], out: &mut Attitude) -> i32 {
-        // SAFETY: as above.
-        unsafe { c_decode_attitude(frame.as_ptr(), frame.len(), out) }
-    }
-
-    pub fn decode_ftp(frame: &[u8], out: &mut Ftp) -> i32 {
-        // SAFETY: as above.
-        unsafe { c_decode_ftp(frame.as_ptr(), frame.len(), out) }
-    }
-
-    pub fn checksum(body: &[u8], crc_extra: u8) -> u16 {
-        // SAFETY: as above.
-        unsafe { c_checksum(body.as_ptr(), body.len(), crc_extra) }
-    }
-
-    extern "C" fn sink(decoded: *const u8) {
-        std::hint::black_box(decoded);
-    }
-
-    /// Parses and decodes every message of `bytes`; returns how many.
-    pub fn stream(bytes: &[u8]) -> usize {
-        // SAFETY: as above; `sink` keeps nothing.
-        unsafe { c_stream(bytes.as_ptr(), bytes.len(), sink) }
-    }
-}
+#[path = "mavlink/c_library.rs"]
+mod c_library;
+#[path = "mavlink/stream.rs"]
+mod stream;
 
 use harness::{compare, compare3, BATCHES, BATCH_TARGET};
 use std::hint::black_box;
@@ -442,95 +370,6 @@ macro_rules! from_data {
 from_data!(HEARTBEAT_DATA => HEARTBEAT, ATTITUDE_DATA => ATTITUDE,
     FILE_TRANSFER_PROTOCOL_DATA => FILE_TRANSFER_PROTOCOL);
 
-/// A telemetry link's mix: messages and how many of each per second, as an autopilot streams
-/// them to a ground station at its default rates.
-const MIX: &[(&str, u32)] = &[
-    ("HEARTBEAT", 1),
-    ("SYS_STATUS", 2),
-    ("SYSTEM_TIME", 1),
-    ("GPS_RAW_INT", 2),
-    ("RAW_IMU", 2),
-    ("SCALED_PRESSURE", 2),
-    ("ATTITUDE", 10),
-    ("GLOBAL_POSITION_INT", 3),
-    ("SERVO_OUTPUT_RAW", 2),
-    ("RC_CHANNELS", 2),
-    ("MISSION_CURRENT", 2),
-    ("NAV_CONTROLLER_OUTPUT", 2),
-    ("VFR_HUD", 4),
-    ("BATTERY_STATUS", 1),
-    ("POWER_STATUS", 2),
-    ("TIMESYNC", 1),
-];
-
-/// A payload of message `id` as both sides encode it: random base fields, with the agreed
-/// values in enum and `mavlink_version` fields, and zero extensions.
-fn sample_payload(id: u32, seed: &mut u64) -> Vec<u8> {
-    let meta = ours::Message::meta_of(id).expect("a common message");
-    // Extension fields stay zero: the two copies of common.xml differ in some messages'
-    // extensions, never in their base fields (see tests/diff_common.rs).
-    let mut payload: Vec<u8> = (0..meta.min_len)
-        .map(|_| {
-            // xorshift64*
-            *seed ^= *seed >> 12;
-            *seed ^= *seed << 25;
-            *seed ^= *seed >> 27;
-            (seed.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 56) as u8
-        })
-        .collect();
-    payload.resize(usize::from(meta.max_len), 0);
-    for &(_, offset, size, count, value) in facts::FIXED_FIELDS
-        .iter()
-        .filter(|f| f.0 == id && f.1 < usize::from(meta.min_len))
-    {
-        for k in 0..usize::from(count) {
-            let at = offset + k * size;
-            payload[at..at + size].copy_from_slice(&value.to_le_bytes()[..size]);
-        }
-    }
-    payload
-}
-
-/// Message `id` with `payload`, framed by each side: the frames must be identical.
-fn frame_both(id: u32, payload: &[u8], seq: u8) -> Vec<u8> {
-    let msg = <ours::Message as Dialect>::decode(id, payload).expect("ours decodes");
-    let mut out = [0u8; v2::MAX_FRAME_LEN];
-    let n = v2::encode_dialect(ours_header(seq), &msg, &mut out).expect("encode");
-    let theirs_msg = theirs::MavMessage::parse(MavlinkVersion::V2, id, payload)
-        .unwrap_or_else(|e| panic!("theirs parses message {id}: {e:?}"));
-    assert_eq!(
-        theirs_frame(seq, &theirs_msg),
-        &out[..n],
-        "message {id}: frames differ"
-    );
-    out[..n].to_vec()
-}
-
-/// About `STREAM_BYTES` of concatenated frames of the telemetry mix, in the mix's proportions,
-/// each with fresh field values. Encoded by both sides, checked equal.
-fn build_stream() -> (Vec<u8>, usize) {
-    let mut order = Vec::new();
-    for &(name, per_second) in MIX {
-        let meta = ours::Message::META
-            .iter()
-            .find(|m| m.name == name)
-            .unwrap_or_else(|| panic!("{name} is not in common.xml"));
-        order.extend(std::iter::repeat_n(meta.id, per_second as usize));
-    }
-    // Interleave: every second's messages spread over the second, not in blocks.
-    order.sort_by_key(|&id| (id.wrapping_mul(2_654_435_761)) % 97);
-    let mut stream = Vec::with_capacity(STREAM_BYTES + 1024);
-    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
-    let mut n = 0usize;
-    while stream.len() < STREAM_BYTES {
-        let id = order[n % order.len()];
-        let payload = sample_payload(id, &mut seed);
-        stream.extend_from_slice(&frame_both(id, &payload, n as u8));
-        n += 1;
-    }
-    (stream, n)
-}
-
 /// Runs the cases whose name contains one of the filters (all when there are none) and
 /// prints one table row each.
 struct Runner {
@@ -676,7 +515,7 @@ fn main() {
         ours::Message::FileTransferProtocol,
     );
 
-    let (stream, frames_in_stream) = build_stream();
+    let (stream, frames_in_stream) = stream::build_stream();
     assert_eq!(
         ours_stream(&stream),
         frames_in_stream,
@@ -709,7 +548,7 @@ fn main() {
     });
     println!(
         "- stream: {frames_in_stream} frames of a telemetry mix ({} message types), {} bytes, mean frame {:.1} B, same messages from both parsers",
-        MIX.len(),
+        stream::MIX.len(),
         stream.len(),
         stream.len() as f64 / frames_in_stream as f64
     );
