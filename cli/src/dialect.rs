@@ -4,7 +4,9 @@
 //! Nothing here uses generated bindings, so the CLI keeps working (and can regenerate
 //! `generated/`) even when the checked-in bindings do not compile.
 
+use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use ferrolink_dictionary::ir::Ir;
 use ferrolink_runtime::mavlink::MessageMeta;
@@ -26,10 +28,10 @@ const OWN: &[(&str, &str)] = &[
 /// Loaded dictionaries: the IR, for decoding, and the message table, for parsers and routers.
 #[derive(Debug)]
 pub struct Dialects {
-    /// The checked IR.
-    pub ir: Ir,
-    /// Every message, sorted by id.
-    pub table: &'static [MessageMeta],
+    /// The checked IR, shared with the decoders made from it.
+    pub ir: Arc<Ir>,
+    /// Every message, sorted by id, shared with the parsers and routers that check with it.
+    pub table: Arc<[MessageMeta]>,
 }
 
 impl Dialects {
@@ -43,11 +45,7 @@ impl Dialects {
         for w in &checked.warnings {
             eprintln!("{w}\n");
         }
-        let table = message_table(&checked.ir);
-        Ok(Self {
-            ir: checked.ir,
-            table,
-        })
+        Ok(Self::new(checked.ir))
     }
 
     /// Our own definitions.
@@ -60,15 +58,28 @@ impl Dialects {
             files.push(path);
         }
         let checked = ferrolink_dictionary::load(&files).map_err(|failed| failed.to_string())?;
-        let table = message_table(&checked.ir);
-        Ok(Self {
-            ir: checked.ir,
-            table,
-        })
+        Ok(Self::new(checked.ir))
+    }
+
+    fn new(ir: Ir) -> Self {
+        Self {
+            table: message_table(&ir),
+            ir: Arc::new(ir),
+        }
+    }
+
+    /// Every message's wire name, by id (a later module's message wins, as in the table).
+    pub fn names(&self) -> BTreeMap<u32, String> {
+        self.ir
+            .modules
+            .iter()
+            .flat_map(|m| &m.messages)
+            .map(|m| (m.id, m.name.wire.clone()))
+            .collect()
     }
 
     /// A decoder for payloads of these dictionaries.
-    pub fn decoder(&self) -> PayloadDecoder<'_> {
-        PayloadDecoder::new(&self.ir)
+    pub fn decoder(&self) -> PayloadDecoder {
+        PayloadDecoder::new(self.ir.clone())
     }
 }

@@ -114,16 +114,14 @@ fn zenoh_endpoints(
     if uris.is_empty() {
         return Ok(Vec::new());
     }
-    // The endpoint's threads live as long as the process; so do the dictionaries.
-    let ir: &'static ferrolink_dictionary::ir::Ir = Box::leak(Box::new(dialects.ir));
-    let decoder = Box::leak(Box::new(ferrolink_traffic::PayloadDecoder::new(ir)));
+    // Every endpoint's threads share the dictionaries.
     let dictionaries = mavlink::Dictionaries {
+        decoder: std::sync::Arc::new(dialects.decoder()),
         table: dialects.table,
-        decoder,
     };
     Ok(uris
         .into_iter()
-        .map(|uri| mavlink::attached(uri, dictionaries))
+        .map(|uri| mavlink::attached(uri, dictionaries.clone()))
         .collect())
 }
 
@@ -217,7 +215,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 }
             }
             let dialects = Dialects::load(&[file.dialects, dialect].concat())?;
-            let table = dialects.table;
+            let table = dialects.table.clone();
             let attached = zenoh_endpoints(zenoh, dialects)?;
             let config = router::Config {
                 endpoints: all,
@@ -341,9 +339,9 @@ fn dump(
         }
     };
     let stats = if raw {
-        tlog::read_raw(&data, dialects.table, &mut print)
+        tlog::read_raw(&data, &dialects.table, &mut print)
     } else {
-        tlog::read_tlog(&data, dialects.table, &mut print)
+        tlog::read_tlog(&data, &dialects.table, &mut print)
     };
     if let Some(e) = failed {
         if e.kind() == io::ErrorKind::BrokenPipe {

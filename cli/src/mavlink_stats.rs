@@ -8,7 +8,6 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use ferrolink_io::mavlink::tlog;
-use ferrolink_runtime::mavlink::find_meta;
 use ferrolink_runtime::mavlink::router::sequence_gap;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -110,13 +109,13 @@ pub fn run(dialect: &[PathBuf], plot: Option<&Path>, file: &Path) -> BoxResult<E
     let data = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
     let mut sources: BTreeMap<SourceId, Source> = BTreeMap::new();
     let mut timeline = Timeline::default();
-    let stats = tlog::read_tlog(&data, dialects.table, |record| {
+    let names = dialects.names();
+    let stats = tlog::read_tlog(&data, &dialects.table, |record| {
         let header = record.frame.header();
         let t = record.t_us.unwrap_or(0);
-        let name = find_meta(dialects.table, record.frame.msg_id()).map_or_else(
-            || format!("#{}", record.frame.msg_id()),
-            |m| m.name.to_owned(),
-        );
+        let name = names
+            .get(&record.frame.msg_id())
+            .map_or_else(|| format!("#{}", record.frame.msg_id()), String::clone);
         let id = (header.sysid, header.compid);
         let source = sources.entry(id).or_default();
         let lost = source.count(header.seq, t);
@@ -260,13 +259,22 @@ impl PlotFormat {
     }
 }
 
-/// Registers the first usable font of [`FONT_PATHS`] as [`FONT`].
+/// Registers the first usable font of [`FONT_PATHS`] as [`FONT`], once per process: the plotting
+/// crate keeps a registered font for the life of the process.
 fn load_font() -> BoxResult<()> {
+    static LOADED: std::sync::OnceLock<Result<(), String>> = std::sync::OnceLock::new();
+    LOADED
+        .get_or_init(|| register_font().map_err(|e| e.to_string()))
+        .clone()
+        .map_err(Into::into)
+}
+
+fn register_font() -> BoxResult<()> {
     for path in FONT_PATHS {
         let Ok(bytes) = std::fs::read(path) else {
             continue;
         };
-        // Fonts are registered for the life of the process.
+        // Registered once (see `load_font`), for the life of the process.
         let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
         if plotters::style::register_font(FONT, FontStyle::Normal, bytes).is_ok() {
             return Ok(());

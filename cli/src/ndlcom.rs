@@ -145,7 +145,7 @@ impl Links {
             }
         }
         let dialects = crate::dialect::Dialects::own()?;
-        let messages = dialects.table;
+        let names = dialects.names();
         let attached = zenoh_interfaces(zenoh, dialects)?;
         let config = ferrolink_io::ndlcom::bridge::Config {
             interfaces,
@@ -154,7 +154,7 @@ impl Links {
             run_for: seconds(self.run_for)?,
             json: self.json,
             commands: !self.no_commands,
-            messages,
+            names,
             ..Default::default()
         };
         Ok((config, attached))
@@ -170,12 +170,11 @@ fn zenoh_interfaces(
     if uris.is_empty() {
         return Ok(Vec::new());
     }
-    // The interface's threads live as long as the process; so do the dictionaries.
-    let ir: &'static ferrolink_dictionary::ir::Ir = Box::leak(Box::new(dialects.ir));
-    let decoder = Box::leak(Box::new(ferrolink_traffic::PayloadDecoder::new(ir)));
+    // Every interface's threads share the dictionaries.
+    let decoder = std::sync::Arc::new(dialects.decoder());
     Ok(uris
         .into_iter()
-        .map(|uri| ferrolink_zenoh::ndlcom::attached(uri, decoder))
+        .map(|uri| ferrolink_zenoh::ndlcom::attached(uri, decoder.clone()))
         .collect())
 }
 
@@ -363,7 +362,7 @@ fn export(
                 return Ok(ExitCode::FAILURE);
             }
         };
-    let decoder = PayloadDecoder::new(&checked.ir);
+    let decoder = PayloadDecoder::new(checked.ir);
     let mut export = CsvExport::new(dir)?;
     let file = io::BufReader::new(std::fs::File::open(log)?);
     let mut parser = Parser::new([0u8; ndlcom::storage_len(ndlcom::MAX_PAYLOAD_LEN)]);

@@ -21,7 +21,6 @@ use libfuzzer_sys::fuzz_target;
 const fn meta(id: u32, crc_extra: u8, min_len: u8, max_len: u8) -> MessageMeta {
     MessageMeta {
         id,
-        name: "",
         crc_extra,
         min_len,
         max_len,

@@ -99,7 +99,9 @@ fn short_payloads_zero_fill_and_long_ones_are_cut() {
 #[test]
 fn dialect_dispatch_covers_included_messages() {
     let meta = usv::Message::meta_of(0).unwrap();
-    assert_eq!((meta.name, meta.crc_extra), ("HEARTBEAT", 50));
+    assert_eq!((meta.id, meta.crc_extra), (0, 50));
+    let heartbeat = usv::Message::decode(0, &[0; 9]).unwrap();
+    assert_eq!((heartbeat.name(), heartbeat.meta().id), ("HEARTBEAT", 0));
     assert!(
         usv::Message::meta_of(180).is_none(),
         "bench messages are not in usv"

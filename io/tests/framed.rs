@@ -23,7 +23,6 @@ const NOISE: [u8; 4] = [0x11, 0x22, 0x33, 0x44];
 
 static META: &[MessageMeta] = &[MessageMeta {
     id: 0,
-    name: "HEARTBEAT",
     crc_extra: 50,
     min_len: 9,
     max_len: 9,

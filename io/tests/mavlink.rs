@@ -10,7 +10,6 @@ use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
 static META: &[MessageMeta] = &[
     MessageMeta {
         id: 0,
-        name: "HEARTBEAT",
         crc_extra: 50,
         min_len: 9,
         max_len: 9,
@@ -19,7 +18,6 @@ static META: &[MessageMeta] = &[
     },
     MessageMeta {
         id: 256,
-        name: "SETUP_SIGNING",
         crc_extra: 71,
         min_len: 42,
         max_len: 42,

@@ -8,25 +8,24 @@ use ferrolink_runtime::mavlink::signing::{SecretKey, Signer, Verifier};
 use ferrolink_runtime::mavlink::{v1, v2, AnyFrame, Header, MessageMeta, Version};
 use proptest::prelude::*;
 
-/// A one-message table for an arbitrary id (leaked: tables are `'static`).
-fn table(id: u32, crc_extra: u8) -> &'static [MessageMeta] {
-    Box::leak(Box::new([MessageMeta {
+/// A one-message table for an arbitrary id, owned by the parser it is given to.
+fn table(id: u32, crc_extra: u8) -> [MessageMeta; 1] {
+    [MessageMeta {
         id,
-        name: "ANY",
         crc_extra,
         min_len: 0,
         max_len: 255,
         target_system: None,
         target_component: None,
-    }]))
+    }]
 }
 
 fn header() -> impl Strategy<Value = Header> {
     (any::<u8>(), any::<u8>(), any::<u8>()).prop_map(|(s, y, c)| Header::new(s, y, c))
 }
 
-fn parse_one(table: &'static [MessageMeta], bytes: &[u8]) -> Vec<u8> {
-    let mut parser: Parser = Parser::new(table);
+fn parse_one(table: [MessageMeta; 1], bytes: &[u8]) -> Vec<u8> {
+    let mut parser = Parser::<{ v2::MAX_FRAME_LEN }, _>::new(table);
     match parser.feed(bytes) {
         Feed::Frame { frame, remaining } => {
             assert!(remaining.is_empty());

@@ -19,7 +19,6 @@ static TORTURE_META: &[MessageMeta] = &[
 const fn raw_meta(id: u32, crc_extra: u8, min_len: u8, max_len: u8) -> MessageMeta {
     MessageMeta {
         id,
-        name: "RAW",
         crc_extra,
         min_len,
         max_len,

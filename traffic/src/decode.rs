@@ -2,6 +2,7 @@
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
+use std::sync::Arc;
 
 use ferrolink_dictionary::ir::{Enum, Field, Ir, Message, Primitive};
 
@@ -64,42 +65,69 @@ pub fn columns(message: &Message) -> Vec<String> {
 }
 
 /// Decodes payloads by message id, with the layouts of an [`Ir`].
+///
+/// It shares the IR (an `Arc`): a decoder handed to threads that outlive the code that loaded
+/// the dictionaries keeps it alive, and frees it with the last clone.
 #[derive(Debug, Clone)]
-pub struct PayloadDecoder<'ir> {
-    pub(crate) ir: &'ir Ir,
-    pub(crate) by_id: HashMap<u32, &'ir Message>,
-    pub(crate) enums: HashMap<&'ir str, &'ir Enum>,
+pub struct PayloadDecoder {
+    ir: Arc<Ir>,
+    /// Where each message id is: (module, message) indices into the IR.
+    by_id: HashMap<u32, (usize, usize)>,
+    /// Each enum's index, by wire name.
+    enums: HashMap<String, usize>,
 }
 
-impl<'ir> PayloadDecoder<'ir> {
+impl PayloadDecoder {
     /// Indexes the messages of every module by id.
     ///
     /// If several modules define the same id, the one that comes later in [`Ir::modules`] wins
     /// (modules are in dependency order, so a dialect overrides what it includes).
-    pub fn new(ir: &'ir Ir) -> Self {
+    pub fn new(ir: impl Into<Arc<Ir>>) -> Self {
+        let ir = ir.into();
         let by_id = ir
             .modules
             .iter()
-            .flat_map(|module| &module.messages)
-            .map(|message| (message.id, message))
+            .enumerate()
+            .flat_map(|(m, module)| {
+                module
+                    .messages
+                    .iter()
+                    .enumerate()
+                    .map(move |(i, message)| (message.id, (m, i)))
+            })
             .collect();
-        let enums = ir.enums.iter().map(|e| (e.name.wire.as_str(), e)).collect();
+        let enums = ir
+            .enums
+            .iter()
+            .enumerate()
+            .map(|(i, e)| (e.name.wire.clone(), i))
+            .collect();
         PayloadDecoder { ir, by_id, enums }
     }
 
     /// The IR this decoder reads.
-    pub fn ir(&self) -> &'ir Ir {
-        self.ir
+    pub fn ir(&self) -> &Ir {
+        &self.ir
     }
 
     /// The message with wire id `id`, if the dictionary has one.
-    pub fn message(&self, id: u32) -> Option<&'ir Message> {
-        self.by_id.get(&id).copied()
+    pub fn message(&self, id: u32) -> Option<&Message> {
+        let &(m, i) = self.by_id.get(&id)?;
+        self.ir.modules.get(m)?.messages.get(i)
+    }
+
+    /// Every message the decoder knows, one per id.
+    pub fn messages(&self) -> impl Iterator<Item = &Message> {
+        self.by_id.keys().filter_map(|&id| self.message(id))
+    }
+
+    fn enum_named(&self, name: &str) -> Option<&Enum> {
+        self.ir.enums.get(*self.enums.get(name)?)
     }
 
     /// Decodes `payload` (without the id) as message `id`. A payload shorter than the message is
     /// zero-filled, bytes beyond it are ignored. `None` if the id is unknown.
-    pub fn decode(&self, id: u32, payload: &[u8]) -> Option<DecodedMessage<'ir>> {
+    pub fn decode(&self, id: u32, payload: &[u8]) -> Option<DecodedMessage<'_>> {
         let message = self.message(id)?;
         let mut buf = vec![0u8; message.max_len];
         let n = payload.len().min(buf.len());
@@ -129,7 +157,7 @@ impl<'ir> PayloadDecoder<'ir> {
 
     /// Decodes an NDLCom frame payload: the message id in the first byte, the message payload
     /// after it. `None` if the frame payload is empty or the id is unknown.
-    pub fn decode_frame(&self, frame_payload: &[u8]) -> Option<DecodedMessage<'ir>> {
+    pub fn decode_frame(&self, frame_payload: &[u8]) -> Option<DecodedMessage<'_>> {
         let (&id, payload) = frame_payload.split_first()?;
         self.decode(u32::from(id), payload)
     }
@@ -140,7 +168,7 @@ impl<'ir> PayloadDecoder<'ir> {
     /// gives the names of the set bits joined by `|`, with bits that have no entry appended in
     /// hex (`MAV_MODE_FLAG_SAFETY_ARMED|0x100`); zero gives the zero entry if there is one.
     pub fn enum_label(&self, field: &Field, value: &Value) -> Option<String> {
-        let e = self.enums.get(field.enum_name.as_deref()?)?;
+        let e = self.enum_named(field.enum_name.as_deref()?)?;
         let value = match *value {
             Value::Unsigned(v) => v,
             Value::Signed(v) => u64::try_from(v).ok()?,

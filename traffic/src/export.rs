@@ -164,7 +164,7 @@ impl CsvExport {
     /// decoded.
     pub fn record(
         &mut self,
-        decoder: &PayloadDecoder<'_>,
+        decoder: &PayloadDecoder,
         meta: &RowMeta,
         frame_payload: &[u8],
     ) -> io::Result<bool> {

@@ -5,7 +5,7 @@ use ferrolink_dictionary::ir::{Field, Primitive};
 use crate::value::{python_text, scalar};
 use crate::{PayloadDecoder, Value};
 
-impl PayloadDecoder<'_> {
+impl PayloadDecoder {
     /// Decodes `payload` as message `id` into pymavlink's `to_dict()` form, as pymavlink 2.4.50
     /// prints it: `{"mavpackettype": NAME, field: value, ...}` in XML order, extensions included,
     /// a short payload zero-filled.
@@ -56,7 +56,7 @@ impl PayloadDecoder<'_> {
     }
 }
 
-impl PayloadDecoder<'_> {
+impl PayloadDecoder {
     /// A MAVLink frame's JSON members, in the form `ferrolink mavlink dump` prints and the Zenoh
     /// endpoint publishes: `"sysid":..,"compid":..,"seq":..,"msg":{<to_dict() form>}`, or for an
     /// id the dictionaries lack `"sysid":..,"compid":..,"seq":..,"msg":null,"id":N,
@@ -104,8 +104,7 @@ impl PayloadDecoder<'_> {
             .and_then(Json::as_str)
             .ok_or("\"mavpackettype\" (the message name) is missing")?;
         let message = self
-            .by_id
-            .values()
+            .messages()
             .find(|m| m.name.wire == name)
             .ok_or_else(|| format!("no message {name} in the dictionaries"))?;
         let mut payload = vec![0u8; message.max_len];
@@ -152,7 +151,7 @@ pub struct FrameDefaults {
     pub target: Option<(u8, u8)>,
 }
 
-impl PayloadDecoder<'_> {
+impl PayloadDecoder {
     /// A JSON object as an unsigned MAVLink 2 frame: either the envelope
     /// `{"sysid":..,"compid":..,"seq":..,"msg":{<to_dict() form>}}` that
     /// [`PayloadDecoder::frame_json_members`] writes, or the message alone; whatever is left out

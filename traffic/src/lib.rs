@@ -13,7 +13,7 @@
 //! use ferrolink_traffic::{CsvExport, PayloadDecoder, RowMeta};
 //!
 //! let checked = ferrolink_dictionary::load(&[PathBuf::from("minimal.xml")]).unwrap();
-//! let decoder = PayloadDecoder::new(&checked.ir);
+//! let decoder = PayloadDecoder::new(checked.ir);
 //! let mut export = CsvExport::new(Path::new("export"))?;
 //! let meta = RowMeta { t_us: 0, sender: 1, receiver: 2, counter: 0 };
 //! export.record(&decoder, &meta, &[30, 0x10, 0x27])?; // ATTITUDE, time_boot_ms = 10000

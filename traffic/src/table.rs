@@ -1,6 +1,7 @@
 //! The message table a parser or router needs, built from the IR at run time.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use ferrolink_dictionary::ir::Ir;
 use ferrolink_runtime::mavlink::MessageMeta;
@@ -9,9 +10,9 @@ use ferrolink_runtime::mavlink::MessageMeta;
 /// built from the IR at run time.
 ///
 /// If several modules define an id, the later one wins, as in [`PayloadDecoder::new`]. The table
-/// and its names are leaked to get the `'static` lifetime the runtime's parsers take: call this
-/// once per dictionary set a program loads, not per frame.
-pub fn message_table(ir: &Ir) -> &'static [MessageMeta] {
+/// is shared: every parser and router that checks frames with it holds a clone of the `Arc`, so
+/// it lives as long as they do, on any thread, and is freed after the last.
+pub fn message_table(ir: &Ir) -> Arc<[MessageMeta]> {
     let mut by_id: BTreeMap<u32, MessageMeta> = BTreeMap::new();
     for message in ir.modules.iter().flat_map(|m| &m.messages) {
         let offset = |o: Option<usize>| o.and_then(|o| u8::try_from(o).ok());
@@ -19,7 +20,6 @@ pub fn message_table(ir: &Ir) -> &'static [MessageMeta] {
             message.id,
             MessageMeta {
                 id: message.id,
-                name: Box::leak(message.name.wire.clone().into_boxed_str()),
                 crc_extra: message.crc_extra,
                 min_len: u8::try_from(message.min_len).unwrap_or(u8::MAX),
                 max_len: u8::try_from(message.max_len).unwrap_or(u8::MAX),
@@ -28,5 +28,5 @@ pub fn message_table(ir: &Ir) -> &'static [MessageMeta] {
             },
         );
     }
-    Box::leak(by_id.into_values().collect::<Vec<_>>().into_boxed_slice())
+    by_id.into_values().collect()
 }

@@ -125,7 +125,7 @@ fn layouts_are_the_ones_the_payloads_are_built_for() {
 #[test]
 fn decodes_attitude_with_shortest_f32() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let decoded = decoder.decode(30, &attitude_payload()).expect("known id");
     assert_eq!(decoded.message.name.wire, "ATTITUDE");
     assert_eq!(
@@ -195,7 +195,7 @@ fn f32_widening_round_trips() {
 #[test]
 fn decodes_heartbeat_and_enum_labels() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let decoded = decoder.decode(0, &heartbeat_payload()).expect("known id");
     assert_eq!(
         rendered(&decoded),
@@ -237,7 +237,7 @@ fn decodes_heartbeat_and_enum_labels() {
 #[test]
 fn decodes_statustext_and_extensions() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let decoded = decoder
         .decode(253, &statustext_payload(b"Low battery, \"RTL\"\0junk"))
         .expect("known id");
@@ -285,7 +285,7 @@ fn decodes_statustext_and_extensions() {
 #[test]
 fn short_payloads_are_zero_filled_long_ones_cut() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     // ATTITUDE cut after roll.
     let mut payload = 1u32.to_le_bytes().to_vec();
     payload.extend_from_slice(&0.5f32.to_le_bytes());
@@ -325,7 +325,7 @@ fn short_payloads_are_zero_filled_long_ones_cut() {
 #[test]
 fn unknown_ids_and_empty_frames() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     assert!(decoder.decode(31, &attitude_payload()).is_none());
     assert!(decoder.decode(1 << 20, &[]).is_none());
     assert!(decoder.decode_frame(&[]).is_none());
@@ -352,7 +352,7 @@ fn arrays_expand_to_one_column_per_element() {
     );
     assert_eq!(cols.last().map(String::as_str), Some("payload[250]"));
 
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let decoded = decoder.decode(110, &[1, 2, 3, 10, 11]).expect("known id");
     let names: Vec<_> = decoded.values.iter().map(|(n, _)| n.clone()).collect();
     assert_eq!(names, cols);
@@ -372,7 +372,7 @@ fn later_module_wins_on_duplicate_ids() {
     dialect.messages.retain(|m| m.id == 30);
     dialect.messages[0].name.wire = "ATTITUDE_OVERRIDE".to_owned();
     ir.modules.push(dialect);
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let decoded = decoder.decode(30, &attitude_payload()).expect("known id");
     assert_eq!(decoded.message.name.wire, "ATTITUDE_OVERRIDE");
     assert_eq!(
@@ -384,7 +384,7 @@ fn later_module_wins_on_duplicate_ids() {
 #[test]
 fn csv_export() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let tmp = tempfile::tempdir().expect("tempdir");
     let dir = tmp.path().join("export");
     let mut export = CsvExport::new(&dir).expect("export dir");
@@ -474,12 +474,15 @@ fn csv_export_rejects_a_second_layout_under_one_name() {
     let tmp = tempfile::tempdir().expect("tempdir");
     let mut export = CsvExport::new(tmp.path()).expect("export dir");
     let meta = RowMeta::default();
-    let full = PayloadDecoder::new(&ir).decode(0, &heartbeat_payload());
+    let (full, short) = (
+        PayloadDecoder::new(ir.clone()),
+        PayloadDecoder::new(changed),
+    );
+    let full = full.decode(0, &heartbeat_payload());
     export
         .write(&meta, &full.expect("known id"))
         .expect("first layout");
-    let short = PayloadDecoder::new(&changed).decode(0, &heartbeat_payload());
-    let short = short.expect("known id");
+    let short = short.decode(0, &heartbeat_payload()).expect("known id");
     assert_eq!(short.values.len(), 5);
     let err = export.write(&meta, &short).expect_err("second layout");
     assert_eq!(err.kind(), io::ErrorKind::Other);
@@ -488,7 +491,7 @@ fn csv_export_rejects_a_second_layout_under_one_name() {
 #[test]
 fn from_dict_inverts_to_dict() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let statustext = statustext_payload(b"GPS: no fix");
     for (id, payload) in [
         (0, heartbeat_payload()),
@@ -509,7 +512,7 @@ fn from_dict_inverts_to_dict() {
 #[test]
 fn from_dict_fills_defaults_and_names_bad_fields() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let ping = serde_json::json!({"mavpackettype": "PING", "seq": 7});
     let (id, payload) = decoder
         .from_dict(&ping, &[("target_system", 3), ("seq", 99)])
@@ -541,7 +544,7 @@ fn from_dict_fills_defaults_and_names_bad_fields() {
 #[test]
 fn frame_json_members_for_known_and_unknown_ids() {
     let ir = minimal();
-    let decoder = PayloadDecoder::new(&ir);
+    let decoder = PayloadDecoder::new(ir.clone());
     let (known, is_known) = decoder.frame_json_members(1, 2, 3, 0, &heartbeat_payload());
     assert!(is_known);
     let value: serde_json::Value = serde_json::from_str(&format!("{{{known}}}")).expect("json");

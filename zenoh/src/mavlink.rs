@@ -25,14 +25,14 @@
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::io;
-use std::sync::{Mutex, PoisonError};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
 use ferrolink_io::link::Status;
 use ferrolink_io::link::{self, Event, Sender};
 use ferrolink_io::mavlink::router::Attached;
 use ferrolink_runtime::mavlink::router::LinkConfig;
-use ferrolink_runtime::mavlink::{find_meta, AnyFrame, MessageMeta};
+use ferrolink_runtime::mavlink::{AnyFrame, MessageMeta};
 use ferrolink_traffic::{FrameDefaults, PayloadDecoder};
 use zenoh::Wait;
 
@@ -46,12 +46,12 @@ pub const DEFAULT_COMPID: u8 = 190;
 
 /// What the endpoint knows of MAVLink: the router's message table, and the dictionaries to
 /// write and read JSON with.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Dictionaries {
-    /// The messages (CRC_EXTRA, names), sorted by id.
-    pub table: &'static [MessageMeta],
-    /// The same dictionaries, for JSON.
-    pub decoder: &'static PayloadDecoder<'static>,
+    /// The messages' CRC_EXTRA and lengths, sorted by id.
+    pub table: Arc<[MessageMeta]>,
+    /// The same dictionaries, for names and JSON.
+    pub decoder: Arc<PayloadDecoder>,
 }
 
 /// The Zenoh endpoint of `uri` as an endpoint the router daemon attaches.
@@ -91,7 +91,7 @@ pub fn open(
         .wait()
         .map_err(|e| running.error(e))?;
 
-    let sender = publisher(running.session(), &root, uri.encoding, dictionaries);
+    let sender = publisher(running.session(), &root, uri.encoding, dictionaries.clone());
     let peer = running.report_up(index, sender, &sink)?;
     let mut frames = FrameMaker::new(dictionaries);
     running.spawn("zenoh-rx", move || {
@@ -144,8 +144,8 @@ fn publisher(
         let publisher = match publishers.entry((sysid, compid, id)) {
             Entry::Occupied(e) => e.into_mut(),
             Entry::Vacant(e) => {
-                let key = match find_meta(dictionaries.table, id) {
-                    Some(meta) => key(&root, sysid, compid, meta.name),
+                let key = match dictionaries.decoder.message(id) {
+                    Some(message) => key(&root, sysid, compid, &message.name.wire),
                     None => key(&root, sysid, compid, &format!("UNKNOWN_{id}")),
                 };
                 let declared = session
@@ -247,16 +247,15 @@ mod tests {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../definitions/mavlink/minimal.xml");
         let ir = ferrolink_dictionary::load(&[path]).expect("minimal.xml").ir;
-        let ir: &'static _ = Box::leak(Box::new(ir));
         Dictionaries {
-            table: ferrolink_traffic::message_table(ir),
-            decoder: Box::leak(Box::new(PayloadDecoder::new(ir))),
+            table: ferrolink_traffic::message_table(&ir),
+            decoder: Arc::new(PayloadDecoder::new(ir)),
         }
     }
 
     /// (sysid, compid, seq, id, JSON of the payload) of the one frame in `bytes`.
-    fn parse(d: Dictionaries, bytes: &[u8]) -> (u8, u8, u8, u32, serde_json::Value) {
-        let mut parser: Parser = Parser::new(d.table);
+    fn parse(d: &Dictionaries, bytes: &[u8]) -> (u8, u8, u8, u32, serde_json::Value) {
+        let mut parser = Parser::<280, _>::new(d.table.clone());
         let mut got = Vec::new();
         parser.feed_all(bytes, |f| {
             let dict = d.decoder.to_dict(f.msg_id(), f.payload()).expect("known");
@@ -270,13 +269,13 @@ mod tests {
     #[test]
     fn json_samples_become_frames() {
         let d = dictionaries();
-        let mut maker = FrameMaker::new(d);
+        let mut maker = FrameMaker::new(d.clone());
         // The envelope, as a router with encoding=json puts it.
         let envelope = br#"{"sysid":3,"compid":1,"seq":77,"msg":{"mavpackettype":"PING","seq":5,"time_usec":9,"target_system":0,"target_component":0}}"#;
         let frame = maker
             .frame("p/mavlink", "p/mavlink/3/1/PING", envelope)
             .expect("a frame");
-        let (sysid, compid, seq, id, dict) = parse(d, &frame);
+        let (sysid, compid, seq, id, dict) = parse(&d, &frame);
         assert_eq!((sysid, compid, seq, id), (3, 1, 77, 4));
         assert_eq!(
             (dict["seq"].as_u64(), dict["time_usec"].as_u64()),
@@ -289,7 +288,7 @@ mod tests {
             let frame = maker
                 .frame("p/mavlink", "p/mavlink/2/7/tx", bare)
                 .expect("a frame");
-            let (sysid, compid, seq, _, dict) = parse(d, &frame);
+            let (sysid, compid, seq, _, dict) = parse(&d, &frame);
             assert_eq!(
                 (sysid, compid, seq),
                 (DEFAULT_SYSID, DEFAULT_COMPID, expected_seq)

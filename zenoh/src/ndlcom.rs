@@ -12,7 +12,7 @@
 //!   never come back, and the bridge never sends a frame back to the interface it came from.
 
 use std::io;
-use std::sync::{Mutex, PoisonError};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::time::Instant;
 
 use ferrolink_io::link::{self, Event, Sender};
@@ -28,7 +28,7 @@ type FrameParser = Parser<[u8; storage_len(ndlcom::MAX_PAYLOAD_LEN)]>;
 
 /// The Zenoh interface of `uri` as an interface the bridge attaches; `decoder` names payloads
 /// and writes and reads JSON.
-pub fn attached(uri: ZenohUri, decoder: &'static PayloadDecoder<'static>) -> Attached {
+pub fn attached(uri: ZenohUri, decoder: Arc<PayloadDecoder>) -> Attached {
     Attached {
         name: uri.to_string(),
         open: Box::new(move |index, sink, _status| {
@@ -39,7 +39,7 @@ pub fn attached(uri: ZenohUri, decoder: &'static PayloadDecoder<'static>) -> Att
 }
 
 /// The name a payload is published under.
-fn message_name(decoder: &PayloadDecoder<'_>, payload: &[u8]) -> String {
+fn message_name(decoder: &PayloadDecoder, payload: &[u8]) -> String {
     match payload.first() {
         None => "EMPTY".into(),
         Some(&id) => decoder
@@ -49,7 +49,7 @@ fn message_name(decoder: &PayloadDecoder<'_>, payload: &[u8]) -> String {
 }
 
 /// A frame as JSON.
-pub fn frame_json(decoder: &PayloadDecoder<'_>, header: &Header, payload: &[u8]) -> String {
+pub fn frame_json(decoder: &PayloadDecoder, header: &Header, payload: &[u8]) -> String {
     let msg = payload
         .split_first()
         .and_then(|(&id, body)| decoder.to_dict(u32::from(id), body))
@@ -64,7 +64,7 @@ pub fn frame_json(decoder: &PayloadDecoder<'_>, header: &Header, payload: &[u8])
 }
 
 /// A JSON sample as an encoded NDLCom frame.
-pub fn frame_from_json(decoder: &PayloadDecoder<'_>, bytes: &[u8]) -> Result<Vec<u8>, String> {
+pub fn frame_from_json(decoder: &PayloadDecoder, bytes: &[u8]) -> Result<Vec<u8>, String> {
     let value: serde_json::Value =
         serde_json::from_slice(bytes).map_err(|e| format!("neither a frame nor JSON: {e}"))?;
     let number = |name: &str, default: Option<u8>| -> Result<u8, String> {
@@ -102,13 +102,13 @@ pub fn frame_from_json(decoder: &PayloadDecoder<'_>, bytes: &[u8]) -> Result<Vec
 pub fn open(
     index: usize,
     uri: &ZenohUri,
-    decoder: &'static PayloadDecoder<'static>,
+    decoder: Arc<PayloadDecoder>,
     sink: link::Sink,
 ) -> io::Result<Running> {
     let mut running = Running::open(uri)?;
     let root = format!("{}/ndlcom", uri.prefix);
     let subscriber = running.subscribe_remote(format!("{root}/**"))?;
-    let sender = publisher(running.session(), &root, uri.encoding, decoder);
+    let sender = publisher(running.session(), &root, uri.encoding, decoder.clone());
     let peer = running.report_up(index, sender, &sink)?;
     let mut rejected = Rejections::default();
     running.spawn("zenoh-ndlcom", move || {
@@ -119,7 +119,7 @@ pub fn open(
         let frame = if bytes.first() == Some(&FLAG) {
             Ok(bytes.to_vec())
         } else {
-            frame_from_json(decoder, &bytes)
+            frame_from_json(&decoder, &bytes)
         };
         match frame {
             Ok(frame) => sink(Event::Rx {
@@ -142,7 +142,7 @@ fn publisher(
     session: &zenoh::Session,
     root: &str,
     encoding: Encoding,
-    decoder: &'static PayloadDecoder<'static>,
+    decoder: Arc<PayloadDecoder>,
 ) -> Sender {
     let (session, root) = (session.clone(), root.to_owned());
     let parser = Mutex::new(Box::new(FrameParser::new(
@@ -158,7 +158,7 @@ fn publisher(
                 "{root}/{}/{}/{}",
                 header.sender,
                 header.receiver,
-                message_name(decoder, payload)
+                message_name(&decoder, payload)
             );
             let put = match encoding {
                 Encoding::Raw => {
@@ -170,7 +170,7 @@ fn publisher(
                     }
                 }
                 Encoding::Json => session
-                    .put(key, frame_json(decoder, &header, payload))
+                    .put(key, frame_json(&decoder, &header, payload))
                     .wait(),
             };
             if let Err(e) = put {
@@ -185,16 +185,16 @@ fn publisher(
 mod tests {
     use super::*;
 
-    fn decoder() -> &'static PayloadDecoder<'static> {
+    fn decoder() -> Arc<PayloadDecoder> {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../definitions/mavlink/minimal.xml");
         let ir = ferrolink_dictionary::load(&[path]).expect("minimal.xml").ir;
-        Box::leak(Box::new(PayloadDecoder::new(Box::leak(Box::new(ir)))))
+        Arc::new(PayloadDecoder::new(ir))
     }
 
     #[test]
     fn json_and_frames_both_ways() {
-        let d = decoder();
+        let d = &decoder();
         let json =
             br#"{"sender":3,"receiver":4,"counter":9,"msg":{"mavpackettype":"PING","seq":5}}"#;
         let frame = frame_from_json(d, json).expect("a frame");

@@ -72,11 +72,10 @@ pub fn frame_both(id: u32, payload: &[u8], seq: u8) -> Vec<u8> {
 pub fn build_stream() -> (Vec<u8>, usize) {
     let mut order = Vec::new();
     for &(name, per_second) in MIX {
-        let meta = ours::Message::META
-            .iter()
-            .find(|m| m.name == name)
+        let id = <theirs::MavMessage as mavlink::Message>::message_id_from_name(name)
+            .filter(|&id| ours::Message::meta_of(id).is_some())
             .unwrap_or_else(|| panic!("{name} is not in common.xml"));
-        order.extend(std::iter::repeat_n(meta.id, per_second as usize));
+        order.extend(std::iter::repeat_n(id, per_second as usize));
     }
     // Interleave: every second's messages spread over the second, not in blocks.
     order.sort_by_key(|&id| (id.wrapping_mul(2_654_435_761)) % 97);

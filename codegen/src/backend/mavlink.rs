@@ -407,7 +407,7 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
         quote! { #rename #v(#path), }
     });
     let metas = all.iter().map(|(_, msg)| {
-        let (id, name, crc) = (msg.id, &msg.name.wire, msg.crc_extra);
+        let (id, crc) = (msg.id, msg.crc_extra);
         let min = msg.min_len as u8;
         let max = msg.max_len as u8;
         let opt = |o: Option<usize>| match o {
@@ -420,7 +420,7 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
         let (ts, tc) = (opt(msg.target_system), opt(msg.target_component));
         quote! {
             ::ferrolink_runtime::mavlink::MessageMeta {
-                id: #id, name: #name, crc_extra: #crc, min_len: #min, max_len: #max,
+                id: #id, crc_extra: #crc, min_len: #min, max_len: #max,
                 target_system: #ts, target_component: #tc,
             },
         }
@@ -432,6 +432,10 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
     let ids = all.iter().map(|(_, msg)| {
         let (v, id) = (ident(&msg.name.rust), msg.id);
         quote!(Self::#v(_) => #id,)
+    });
+    let names = all.iter().map(|(_, msg)| {
+        let (v, wire) = (ident(&msg.name.rust), &msg.name.wire);
+        quote!(Self::#v(_) => #wire,)
     });
     // Id dispatch the compiler turns into a jump table, instead of a search of META.
     let metas_by_id = all.iter().enumerate().map(|(i, (_, msg))| {
@@ -483,8 +487,9 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
             )
         }
     };
-    let (id_body, encode_body, meta_body) = if all.is_empty() {
+    let (id_body, name_body, encode_body, meta_body) = if all.is_empty() {
         (
+            quote!(match *self {}),
             quote!(match *self {}),
             quote!(let _ = buf; match *self {}),
             quote!(match *self {}),
@@ -492,6 +497,7 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
     } else {
         (
             quote!(match self { #( #ids )* }),
+            quote!(match self { #( #names )* }),
             quote!(match self { #( #encodes )* }),
             quote!(match self { #( #metas_by_variant )* }),
         )
@@ -520,6 +526,10 @@ fn emit_dialect(ctx: &Ctx<'_>) -> TokenStream {
 
             fn id(&self) -> u32 {
                 #id_body
+            }
+
+            fn name(&self) -> &'static str {
+                #name_body
             }
 
             fn encode(&self, buf: &mut ::ferrolink_runtime::mavlink::PayloadBuf) -> usize {

@@ -44,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .enumerate()
     {
         let n = v2::encode_dialect(Header::new(seq as u8, 1, 1), msg, &mut frame)?;
-        println!("tx {:<11} {}", msg.meta().name, hex(&frame[..n]));
+        println!("tx {:<11} {}", msg.name(), hex(&frame[..n]));
         link.extend_from_slice(&frame[..n]);
         link.extend_from_slice(&[0xFD, 0x20, 0x00, 0x55]); // line noise with a false magic byte
     }

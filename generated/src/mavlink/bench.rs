@@ -515,7 +515,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
     const META: &'static [::ferrolink_runtime::mavlink::MessageMeta] = &[
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 0u32,
-            name: "HEARTBEAT",
             crc_extra: 50u8,
             min_len: 9u8,
             max_len: 9u8,
@@ -524,7 +523,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 2u32,
-            name: "SYSTEM_TIME",
             crc_extra: 137u8,
             min_len: 12u8,
             max_len: 12u8,
@@ -533,7 +531,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 4u32,
-            name: "PING",
             crc_extra: 237u8,
             min_len: 14u8,
             max_len: 14u8,
@@ -542,7 +539,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 30u32,
-            name: "ATTITUDE",
             crc_extra: 39u8,
             min_len: 28u8,
             max_len: 28u8,
@@ -551,7 +547,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 76u32,
-            name: "COMMAND_LONG",
             crc_extra: 152u8,
             min_len: 33u8,
             max_len: 33u8,
@@ -560,7 +555,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 77u32,
-            name: "COMMAND_ACK",
             crc_extra: 143u8,
             min_len: 3u8,
             max_len: 10u8,
@@ -569,7 +563,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 110u32,
-            name: "FILE_TRANSFER_PROTOCOL",
             crc_extra: 84u8,
             min_len: 254u8,
             max_len: 254u8,
@@ -578,7 +571,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 180u32,
-            name: "BENCH_1",
             crc_extra: 135u8,
             min_len: 1u8,
             max_len: 1u8,
@@ -587,7 +579,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 181u32,
-            name: "BENCH_9",
             crc_extra: 222u8,
             min_len: 9u8,
             max_len: 9u8,
@@ -596,7 +587,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 182u32,
-            name: "BENCH_16",
             crc_extra: 247u8,
             min_len: 16u8,
             max_len: 16u8,
@@ -605,7 +595,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 183u32,
-            name: "BENCH_40",
             crc_extra: 136u8,
             min_len: 40u8,
             max_len: 40u8,
@@ -614,7 +603,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 184u32,
-            name: "BENCH_200",
             crc_extra: 58u8,
             min_len: 200u8,
             max_len: 200u8,
@@ -623,7 +611,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 185u32,
-            name: "BENCH_248",
             crc_extra: 150u8,
             min_len: 248u8,
             max_len: 248u8,
@@ -632,7 +619,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 253u32,
-            name: "STATUSTEXT",
             crc_extra: 83u8,
             min_len: 51u8,
             max_len: 54u8,
@@ -757,6 +743,24 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
             Self::Bench200(_) => 184u32,
             Self::Bench248(_) => 185u32,
             Self::Statustext(_) => 253u32,
+        }
+    }
+    fn name(&self) -> &'static str {
+        match self {
+            Self::Heartbeat(_) => "HEARTBEAT",
+            Self::SystemTime(_) => "SYSTEM_TIME",
+            Self::Ping(_) => "PING",
+            Self::Attitude(_) => "ATTITUDE",
+            Self::CommandLong(_) => "COMMAND_LONG",
+            Self::CommandAck(_) => "COMMAND_ACK",
+            Self::FileTransferProtocol(_) => "FILE_TRANSFER_PROTOCOL",
+            Self::Bench1(_) => "BENCH_1",
+            Self::Bench9(_) => "BENCH_9",
+            Self::Bench16(_) => "BENCH_16",
+            Self::Bench40(_) => "BENCH_40",
+            Self::Bench200(_) => "BENCH_200",
+            Self::Bench248(_) => "BENCH_248",
+            Self::Statustext(_) => "STATUSTEXT",
         }
     }
     fn encode(&self, buf: &mut ::ferrolink_runtime::mavlink::PayloadBuf) -> usize {

@@ -114,7 +114,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
     const META: &'static [::ferrolink_runtime::mavlink::MessageMeta] = &[
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 0u32,
-            name: "HEARTBEAT",
             crc_extra: 50u8,
             min_len: 9u8,
             max_len: 9u8,
@@ -123,7 +122,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 2u32,
-            name: "SYSTEM_TIME",
             crc_extra: 137u8,
             min_len: 12u8,
             max_len: 12u8,
@@ -132,7 +130,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 4u32,
-            name: "PING",
             crc_extra: 237u8,
             min_len: 14u8,
             max_len: 14u8,
@@ -141,7 +138,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 30u32,
-            name: "ATTITUDE",
             crc_extra: 39u8,
             min_len: 28u8,
             max_len: 28u8,
@@ -150,7 +146,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 76u32,
-            name: "COMMAND_LONG",
             crc_extra: 152u8,
             min_len: 33u8,
             max_len: 33u8,
@@ -159,7 +154,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 77u32,
-            name: "COMMAND_ACK",
             crc_extra: 143u8,
             min_len: 3u8,
             max_len: 10u8,
@@ -168,7 +162,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 110u32,
-            name: "FILE_TRANSFER_PROTOCOL",
             crc_extra: 84u8,
             min_len: 254u8,
             max_len: 254u8,
@@ -177,7 +170,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 150u32,
-            name: "RUDDER_RAW",
             crc_extra: 32u8,
             min_len: 5u8,
             max_len: 5u8,
@@ -186,7 +178,6 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
         },
         ::ferrolink_runtime::mavlink::MessageMeta {
             id: 253u32,
-            name: "STATUSTEXT",
             crc_extra: 83u8,
             min_len: 51u8,
             max_len: 54u8,
@@ -287,6 +278,19 @@ impl ::ferrolink_runtime::mavlink::Dialect for Message {
             Self::FileTransferProtocol(_) => 110u32,
             Self::RudderRaw(_) => 150u32,
             Self::Statustext(_) => 253u32,
+        }
+    }
+    fn name(&self) -> &'static str {
+        match self {
+            Self::Heartbeat(_) => "HEARTBEAT",
+            Self::SystemTime(_) => "SYSTEM_TIME",
+            Self::Ping(_) => "PING",
+            Self::Attitude(_) => "ATTITUDE",
+            Self::CommandLong(_) => "COMMAND_LONG",
+            Self::CommandAck(_) => "COMMAND_ACK",
+            Self::FileTransferProtocol(_) => "FILE_TRANSFER_PROTOCOL",
+            Self::RudderRaw(_) => "RUDDER_RAW",
+            Self::Statustext(_) => "STATUSTEXT",
         }
     }
     fn encode(&self, buf: &mut ::ferrolink_runtime::mavlink::PayloadBuf) -> usize {

@@ -157,8 +157,8 @@ pub type AsyncConnection = Connection<Async>;
 /// address heard from in the last 10 s. Sends use the connection's own system and component ids
 /// and sequence numbers counting up, as MAVLink 2 (or 1) frames, signed if a key is set.
 pub struct Connection<E = Blocking> {
-    framed: Framed<Parser, E>,
-    table: &'static [MessageMeta],
+    framed: Framed<Parser<{ v2::MAX_FRAME_LEN }, Arc<[MessageMeta]>>, E>,
+    table: Arc<[MessageMeta]>,
     /// Read by the parsers of peers yet to come.
     pass_unknown: Arc<AtomicBool>,
     queue: VecDeque<Frame>,
@@ -180,14 +180,14 @@ impl<E> std::fmt::Debug for Connection<E> {
 }
 
 impl<E: Events> Connection<E> {
-    fn start(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
+    fn start(uri: &str, table: Arc<[MessageMeta]>) -> io::Result<Self> {
         let endpoint = ENDPOINTS
             .endpoint(uri)
             .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
         let pass_unknown = Arc::new(AtomicBool::new(false));
-        let pass = pass_unknown.clone();
+        let (pass, shared) = (pass_unknown.clone(), table.clone());
         let framed = Framed::open(&endpoint, move || {
-            Parser::new(table).pass_unknown_ids(pass.load(Ordering::Relaxed))
+            Parser::new(shared.clone()).pass_unknown_ids(pass.load(Ordering::Relaxed))
         })?;
         Ok(Self {
             framed,
@@ -267,7 +267,7 @@ impl<E: Events> Connection<E> {
         let encoded = match (self.version, &mut self.signer) {
             (Version::V1, _) => {
                 let min =
-                    find_meta(self.table, id).map_or(payload.len(), |m| usize::from(m.min_len));
+                    find_meta(&self.table, id).map_or(payload.len(), |m| usize::from(m.min_len));
                 v1::encode_raw(
                     header,
                     id,
@@ -293,11 +293,11 @@ impl<E: Events> Connection<E> {
 }
 
 impl Connection<Blocking> {
-    /// Opens `uri`, checking received frames against `table` (a dialect's `META`). Sockets are
-    /// bound before this returns; `tcpout` and `serial` connect in the background and keep
-    /// reconnecting.
-    pub fn open(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
-        Self::start(uri, table)
+    /// Opens `uri`, checking received frames against `table` (a dialect's `META`, or a table
+    /// built at run time, shared with the connection's parsers). Sockets are bound before this
+    /// returns; `tcpout` and `serial` connect in the background and keep reconnecting.
+    pub fn open(uri: &str, table: impl Into<Arc<[MessageMeta]>>) -> io::Result<Self> {
+        Self::start(uri, table.into())
     }
 
     /// Waits up to `timeout` for a frame. `Ok(None)` when none came in time.
@@ -350,7 +350,7 @@ impl Connection<Blocking> {
     ///
     /// ```no_run
     /// # use ferrolink_io::mavlink::Connection;
-    /// # let mut vehicle = Connection::open("udpin://0.0.0.0:14550", &[])?;
+    /// # let mut vehicle = Connection::open("udpin://0.0.0.0:14550", &[][..])?;
     /// for frame in vehicle.frames().take(10) {
     ///     println!("message {}", frame?.msg_id());
     /// }
@@ -420,8 +420,8 @@ impl<D: Dialect> Iterator for Messages<'_, D> {
 #[cfg(feature = "tokio")]
 impl Connection<Async> {
     /// Opens `uri` for async use, as [`Connection::open`] does. Needs no particular runtime.
-    pub fn connect(uri: &str, table: &'static [MessageMeta]) -> io::Result<Self> {
-        Self::start(uri, table)
+    pub fn connect(uri: &str, table: impl Into<Arc<[MessageMeta]>>) -> io::Result<Self> {
+        Self::start(uri, table.into())
     }
 
     /// Waits for a frame (wrap it in a timeout as you need).

@@ -30,7 +30,7 @@ pub struct Config {
     /// The endpoints, each with the configuration of its links.
     pub endpoints: Vec<EndpointConfig>,
     /// The messages it knows (CRC_EXTRA, target offsets), sorted by id.
-    pub table: &'static [MessageMeta],
+    pub table: Arc<[MessageMeta]>,
     /// Log every frame received here.
     pub tlog: Option<PathBuf>,
     /// Append a JSON object of statistics here every second and at exit.
@@ -69,7 +69,7 @@ struct Link {
 
 /// What the endpoint threads share: they route each read on their own thread, under this lock.
 struct State {
-    router: Box<Daemon>,
+    router: Box<Daemon<Arc<[MessageMeta]>>>,
     /// The link configuration of every endpoint, attached ones last.
     link_configs: Vec<LinkConfig>,
     links: HashMap<PeerId, Link>,
@@ -200,7 +200,7 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
         None => None,
     };
     let state = Arc::new(Mutex::new(State {
-        router: Box::new(Daemon::new(config.table)),
+        router: Box::new(Daemon::new(config.table.clone())),
         link_configs: config
             .endpoints
             .iter()

@@ -133,10 +133,10 @@ pub struct Record<'a> {
 /// timestamp.
 pub fn read_tlog(
     data: &[u8],
-    table: &'static [MessageMeta],
+    table: &[MessageMeta],
     mut on_record: impl FnMut(Record<'_>),
 ) -> ReadStats {
-    let aligned = Parser::<{ v2::MAX_FRAME_LEN }>::new(table).pass_unknown_ids(true);
+    let aligned = Parser::<{ v2::MAX_FRAME_LEN }, _>::new(table).pass_unknown_ids(true);
     let mut stats = ReadStats::default();
     let mut pos = 0;
     while pos < data.len() {
@@ -157,7 +157,7 @@ pub fn read_tlog(
             continue;
         }
         // Damage: search from the byte after this record's timestamp.
-        let mut search = Parser::<{ v2::MAX_FRAME_LEN }>::new(table);
+        let mut search = Parser::<{ v2::MAX_FRAME_LEN }, _>::new(table);
         let found = match search.feed(body) {
             Feed::Frame { frame, remaining } => {
                 let end = data.len() - remaining.len();
@@ -203,10 +203,10 @@ fn timestamp(data: &[u8], at: usize) -> Option<u64> {
 /// table lacks cannot be checked and are skipped (in noise they are mostly false frames).
 pub fn read_raw(
     data: &[u8],
-    table: &'static [MessageMeta],
+    table: &[MessageMeta],
     mut on_record: impl FnMut(Record<'_>),
 ) -> ReadStats {
-    let mut parser = Parser::<{ v2::MAX_FRAME_LEN }>::new(table);
+    let mut parser = Parser::<{ v2::MAX_FRAME_LEN }, _>::new(table);
     let mut stats = ReadStats::default();
     let mut input = data;
     while let Feed::Frame { frame, remaining } = parser.feed(input) {

@@ -22,7 +22,7 @@ use std::sync::{mpsc, Arc};
 use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use ferrolink_runtime::mavlink::{find_meta, Message, MessageMeta, PayloadBuf};
+use ferrolink_runtime::mavlink::{Message, PayloadBuf};
 use ferrolink_runtime::ndlcom::bridge::{Bridge, IfaceStats, Mode};
 use ferrolink_runtime::ndlcom::counters::{MissTracker, Observation};
 use ferrolink_runtime::ndlcom::{self, payload, storage_len, Frame, Header, BROADCAST};
@@ -78,8 +78,8 @@ pub struct Config {
     pub log_only: bool,
     /// Print JSON lines instead of text.
     pub json: bool,
-    /// The message table used to name the messages printed (sorted by id; empty: no names).
-    pub messages: &'static [MessageMeta],
+    /// The names of the messages printed, by message id (empty: no names).
+    pub names: BTreeMap<u32, String>,
     /// Read commands from stdin: `s` statistics, `r` routes, `m` missed packets, `a`/`o`/`n`
     /// print all/own/no frames, `q` quit.
     pub commands: bool,
@@ -456,8 +456,8 @@ impl Program {
         }
         if self.config.print == Print::All || (self.config.print == Print::Own && own) {
             let message = payload::message_id(payload)
-                .and_then(|id| find_meta(self.config.messages, id.into()))
-                .map_or("", |m| m.name);
+                .and_then(|id| self.config.names.get(&id.into()))
+                .map_or("", String::as_str);
             self.report(
                 json!({"event": "frame", "interface": name, "receiver": header.receiver,
                        "sender": header.sender, "counter": header.counter,

@@ -16,7 +16,7 @@ use ferrolink_io::mavlink::tlog::{read_raw, read_tlog, ReadStats, Record};
 use ferrolink_io::mavlink::ENDPOINTS;
 use ferrolink_runtime::mavlink::MessageMeta;
 
-pub fn check_tlog(data: &[u8], table: &'static [MessageMeta]) {
+pub fn check_tlog(data: &[u8], table: &[MessageMeta]) {
     for raw in [false, true] {
         let mut end = 0;
         let mut records = 0u64;

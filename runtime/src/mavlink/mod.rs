@@ -69,8 +69,6 @@ pub trait Message: Sized {
 pub struct MessageMeta {
     /// Message id.
     pub id: u32,
-    /// Wire name.
-    pub name: &'static str,
     /// CRC_EXTRA seed.
     pub crc_extra: u8,
     /// Base payload length.
@@ -136,6 +134,9 @@ pub trait Dialect: Sized {
     /// The message id.
     fn id(&self) -> u32;
 
+    /// The message's wire name, e.g. `"HEARTBEAT"`.
+    fn name(&self) -> &'static str;
+
     /// Writes the whole payload and returns its length (`MAX_LEN`).
     fn encode(&self, buf: &mut PayloadBuf) -> usize;
 
@@ -156,7 +157,6 @@ pub trait Dialect: Sized {
 
 static UNKNOWN_META: MessageMeta = MessageMeta {
     id: u32::MAX,
-    name: "",
     crc_extra: 0,
     min_len: 0,
     max_len: 0,

@@ -14,7 +14,7 @@
 //! use ferrolink_runtime::mavlink::{parser::{Feed, Parser}, MessageMeta};
 //!
 //! static META: &[MessageMeta] = &[MessageMeta {
-//!     id: 0, name: "HEARTBEAT", crc_extra: 50, min_len: 9, max_len: 9,
+//!     id: 0, crc_extra: 50, min_len: 9, max_len: 9,
 //!     target_system: None, target_component: None,
 //! }];
 //! let heartbeat = [
@@ -103,7 +103,7 @@ pub use crate::framing::Feed;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ParsedFrame<'p> {
     frame: AnyFrame<&'p [u8]>,
-    meta: Option<&'static MessageMeta>,
+    meta: Option<MessageMeta>,
 }
 
 impl<'p> ParsedFrame<'p> {
@@ -121,8 +121,8 @@ impl<'p> ParsedFrame<'p> {
 
     /// The table entry of the message id, or `None` for an unknown id passed through unchecked.
     #[inline]
-    pub fn meta(&self) -> Option<&'static MessageMeta> {
-        self.meta
+    pub fn meta(&self) -> Option<&MessageMeta> {
+        self.meta.as_ref()
     }
 
     /// Whether the checksum was verified: false only for unknown ids passed through.
@@ -193,14 +193,14 @@ enum Eval {
     Reject(Reject),
     Accept {
         len: usize,
-        meta: Option<&'static MessageMeta>,
+        meta: Option<MessageMeta>,
     },
 }
 
 /// Where an accepted frame lies.
 enum Found {
-    Buffer(usize, Option<&'static MessageMeta>),
-    Input(usize, Option<&'static MessageMeta>),
+    Buffer(usize, Option<MessageMeta>),
+    Input(usize, Option<MessageMeta>),
 }
 
 /// The stream parser, with an internal buffer of `N` bytes for frames split across `feed`
@@ -220,7 +220,7 @@ enum Found {
 /// false magic byte that looks like the header of an unknown message can swallow the frames
 /// inside its claimed length.
 #[derive(Clone)]
-pub struct Parser<const N: usize = { v2::MAX_FRAME_LEN }> {
+pub struct Parser<const N: usize = { v2::MAX_FRAME_LEN }, T = &'static [MessageMeta]> {
     buf: [u8; N],
     /// The current candidate starts at `buf[start]`; `buf[start..end]` is buffered.
     start: usize,
@@ -230,7 +230,7 @@ pub struct Parser<const N: usize = { v2::MAX_FRAME_LEN }> {
     /// How many bytes the candidate at `buf[start]` needs before it is worth judging again (0:
     /// judge it now). Bytes fed one at a time are then only appended.
     need: usize,
-    table: &'static [MessageMeta],
+    table: T,
     /// The dialect's own id dispatch ([`Dialect::meta_of`], a jump table), if the parser was
     /// made for a dialect; else `table` is searched.
     find: Option<fn(u32) -> Option<&'static MessageMeta>>,
@@ -238,26 +238,28 @@ pub struct Parser<const N: usize = { v2::MAX_FRAME_LEN }> {
     stats: Stats,
 }
 
-impl<const N: usize> fmt::Debug for Parser<N> {
+impl<const N: usize, T: AsRef<[MessageMeta]>> fmt::Debug for Parser<N, T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("Parser")
             .field("capacity", &N)
             .field("buffered", &self.buffered())
-            .field("messages", &self.table.len())
+            .field("messages", &self.table.as_ref().len())
             .field("pass_unknown_ids", &self.pass_unknown)
             .field("stats", &self.stats)
             .finish()
     }
 }
 
-impl<const N: usize> Parser<N> {
+impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
     const BUFFER_HOLDS_A_FRAME: () = assert!(
         N >= v2::MAX_FRAME_LEN,
         "Parser<N> needs N >= v2::MAX_FRAME_LEN (280)"
     );
 
-    /// A parser checking frames against `table` (sorted by id, as [`Dialect::META`] is).
-    pub const fn new(table: &'static [MessageMeta]) -> Self {
+    /// A parser checking frames against `table` (sorted by id, as [`Dialect::META`] is): a
+    /// dialect's `META`, or a table built at run time and owned by the parser (an
+    /// `Arc<[MessageMeta]>`, say, shared with other parsers).
+    pub const fn new(table: T) -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::BUFFER_HOLDS_A_FRAME;
         Self {
@@ -280,13 +282,6 @@ impl<const N: usize> Parser<N> {
         }
     }
 
-    /// A parser for dialect `D`, looking ids up through the dialect's own dispatch.
-    pub const fn for_dialect<D: Dialect>() -> Self {
-        let mut parser = Self::new(D::META);
-        parser.find = Some(D::meta_of);
-        parser
-    }
-
     /// Whether frames with unknown message ids are handed out unchecked instead of dropped
     /// (off by default). See the type documentation for the risk.
     pub const fn pass_unknown_ids(mut self, pass: bool) -> Self {
@@ -300,8 +295,8 @@ impl<const N: usize> Parser<N> {
     }
 
     /// The message table.
-    pub fn table(&self) -> &'static [MessageMeta] {
-        self.table
+    pub fn table(&self) -> &[MessageMeta] {
+        self.table.as_ref()
     }
 
     /// The counters.
@@ -456,11 +451,6 @@ impl<const N: usize> Parser<N> {
         }
     }
 
-    /// Feeds bytes and calls `on_frame` for every frame they complete; returns how many.
-    pub fn feed_all(&mut self, input: &[u8], on_frame: impl FnMut(ParsedFrame<'_>)) -> usize {
-        Deframer::feed_all(self, input, on_frame)
-    }
-
     /// Judges the one frame that starts at `bytes[0]`, without searching or buffering: for
     /// input whose frame boundaries are known, such as the records of a telemetry log. Counts
     /// nothing. `None` unless a whole frame that this parser would accept starts there.
@@ -537,13 +527,13 @@ impl<const N: usize> Parser<N> {
     }
 
     #[inline]
-    fn lookup(&self, id: u32) -> Result<Option<&'static MessageMeta>, Reject> {
+    fn lookup(&self, id: u32) -> Result<Option<MessageMeta>, Reject> {
         let found = match self.find {
             Some(find) => find(id),
-            None => find_meta(self.table, id),
+            None => find_meta(self.table.as_ref(), id),
         };
         match found {
-            Some(meta) => Ok(Some(meta)),
+            Some(meta) => Ok(Some(*meta)),
             None if self.pass_unknown => Ok(None),
             None => Err(Reject::UnknownId),
         }
@@ -621,7 +611,7 @@ fn accept_if_crc_matches(
     frame: &[u8],
     body: usize,
     total: usize,
-    meta: Option<&'static MessageMeta>,
+    meta: Option<MessageMeta>,
 ) -> Eval {
     let Some(m) = meta else {
         return Eval::Accept { len: total, meta };
@@ -637,8 +627,27 @@ fn accept_if_crc_matches(
     }
 }
 
-impl<const N: usize> Deframer for Parser<N> {
-    type Frame<'p> = ParsedFrame<'p>;
+impl<const N: usize> Parser<N> {
+    /// A parser for dialect `D`, looking ids up through the dialect's own dispatch.
+    pub const fn for_dialect<D: Dialect>() -> Self {
+        let mut parser = Self::new(D::META);
+        parser.find = Some(D::meta_of);
+        parser
+    }
+}
+
+impl<const N: usize, T: AsRef<[MessageMeta]> + 'static> Parser<N, T> {
+    /// Feeds bytes and calls `on_frame` for every frame they complete; returns how many.
+    pub fn feed_all(&mut self, input: &[u8], on_frame: impl FnMut(ParsedFrame<'_>)) -> usize {
+        Deframer::feed_all(self, input, on_frame)
+    }
+}
+
+impl<const N: usize, T: AsRef<[MessageMeta]>> Deframer for Parser<N, T> {
+    type Frame<'p>
+        = ParsedFrame<'p>
+    where
+        T: 'p;
     type Stats = Stats;
 
     #[inline]
@@ -740,7 +749,7 @@ mod tests {
             frame.decode::<TestDialect>(),
             Ok(TestDialect::Heartbeat(golden_heartbeat()))
         );
-        assert_eq!(frame.meta().map(|m| m.name), Some("HEARTBEAT"));
+        assert_eq!(frame.meta().map(|m| m.id), Some(0));
         let v2 = frame.as_v2().unwrap();
         assert!(v2.is_signed());
         assert_eq!(v2.link_id(), Some(7));

@@ -158,7 +158,6 @@ pub enum TestDialect {
 pub const fn meta_of<M: Message>() -> MessageMeta {
     MessageMeta {
         id: M::ID,
-        name: M::NAME,
         crc_extra: M::CRC_EXTRA,
         min_len: M::MIN_LEN as u8,
         max_len: M::MAX_LEN as u8,
@@ -188,6 +187,14 @@ impl Dialect for TestDialect {
             Self::Heartbeat(_) => Heartbeat::ID,
             Self::Ext(_) => ExtMsg::ID,
             Self::Big(_) => Big::ID,
+        }
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Self::Heartbeat(_) => Heartbeat::NAME,
+            Self::Ext(_) => ExtMsg::NAME,
+            Self::Big(_) => Big::NAME,
         }
     }
 

@@ -17,7 +17,6 @@ use ferrolink_runtime::mavlink::{find_meta, v1, v2, Header, MessageMeta};
 pub static META: &[MessageMeta] = &[
     MessageMeta {
         id: 0,
-        name: "HEARTBEAT",
         crc_extra: 50,
         min_len: 9,
         max_len: 9,
@@ -26,7 +25,6 @@ pub static META: &[MessageMeta] = &[
     },
     MessageMeta {
         id: 4,
-        name: "PING",
         crc_extra: 237,
         min_len: 14,
         max_len: 14,
@@ -35,7 +33,6 @@ pub static META: &[MessageMeta] = &[
     },
     MessageMeta {
         id: 21,
-        name: "PARAM_REQUEST_LIST",
         crc_extra: 159,
         min_len: 2,
         max_len: 2,
@@ -44,7 +41,6 @@ pub static META: &[MessageMeta] = &[
     },
     MessageMeta {
         id: 76,
-        name: "COMMAND_LONG",
         crc_extra: 152,
         min_len: 33,
         max_len: 33,

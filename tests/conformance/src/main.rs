@@ -85,15 +85,18 @@ fn check_vector(line: &str) -> Result<(), Error> {
     let v: Vector = serde_json::from_str(line)?;
     let meta = Message::meta_of(v.id)
         .ok_or_else(|| format!("{}: id {} not in the dialect", v.name, v.id))?;
-    if meta.name != v.name || meta.crc_extra != v.crc_extra {
+    let expected: Message = serde_json::from_value(v.fields.clone())
+        .map_err(|e| format!("{}: fields do not deserialize: {e}", v.name))?;
+    if expected.name() != v.name || meta.crc_extra != v.crc_extra {
         return Err(format!(
             "{}: metadata differs: ours {} crc_extra {}, vector crc_extra {}",
-            v.name, meta.name, meta.crc_extra, v.crc_extra
+            v.name,
+            expected.name(),
+            meta.crc_extra,
+            v.crc_extra
         )
         .into());
     }
-    let expected: Message = serde_json::from_value(v.fields.clone())
-        .map_err(|e| format!("{}: fields do not deserialize: {e}", v.name))?;
     // And back: the message serializes to exactly pymavlink's `to_dict()`.
     let shown = serde_json::to_value(&expected)?;
     if shown != v.fields {

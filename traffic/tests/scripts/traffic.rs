@@ -6,16 +6,15 @@
 //! names that message; nothing panics either way.
 
 use std::path::Path;
-use std::sync::OnceLock;
+use std::sync::{Arc, OnceLock};
 
-use ferrolink_dictionary::ir::Ir;
 use ferrolink_runtime::mavlink::parser::Parser;
-use ferrolink_runtime::mavlink::MessageMeta;
+use ferrolink_runtime::mavlink::{v2, MessageMeta};
 use ferrolink_traffic::{message_table, FrameDefaults, PayloadDecoder};
 
 /// Our minimal dialect, loaded once.
-fn dictionary() -> &'static (Ir, &'static [MessageMeta]) {
-    static LOADED: OnceLock<(Ir, &'static [MessageMeta])> = OnceLock::new();
+fn dictionary() -> &'static (PayloadDecoder, Arc<[MessageMeta]>) {
+    static LOADED: OnceLock<(PayloadDecoder, Arc<[MessageMeta]>)> = OnceLock::new();
     LOADED.get_or_init(|| {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../definitions/mavlink/minimal.xml");
         let path = if path.exists() {
@@ -26,15 +25,14 @@ fn dictionary() -> &'static (Ir, &'static [MessageMeta]) {
         };
         let ir = ferrolink_dictionary::load(&[path]).expect("minimal.xml").ir;
         let table = message_table(&ir);
-        (ir, table)
+        (PayloadDecoder::new(ir), table)
     })
 }
 
 /// Checks the invariants for one input: the first three bytes pick the defaults, the rest is
 /// the JSON text.
 pub fn check_json_frame(data: &[u8]) {
-    let (ir, table) = dictionary();
-    let decoder = PayloadDecoder::new(ir);
+    let (decoder, table) = dictionary();
     let [a, b, c, text @ ..] = data else {
         return;
     };
@@ -50,7 +48,7 @@ pub fn check_json_frame(data: &[u8]) {
     let Ok(frame) = decoder.frame_from_json(&value, defaults) else {
         return;
     };
-    let mut parser: Parser = Parser::new(table);
+    let mut parser = Parser::<{ v2::MAX_FRAME_LEN }, _>::new(table.clone());
     let mut frames = Vec::new();
     parser.feed_all(&frame, |f| {
         frames.push((f.msg_id(), f.as_bytes().len(), f.payload().to_vec()))

@@ -38,7 +38,7 @@
 //! use ferrolink_runtime::mavlink::MessageMeta;
 //!
 //! static META: &[MessageMeta] = &[MessageMeta {
-//!     id: 0, name: "HEARTBEAT", crc_extra: 50, min_len: 9, max_len: 9,
+//!     id: 0, crc_extra: 50, min_len: 9, max_len: 9,
 //!     target_system: None, target_component: None,
 //! }];
 //! let heartbeat = [
@@ -57,7 +57,8 @@
 
 use super::parser::{Feed, ParsedFrame, Parser, Stats as ParserStats};
 use super::signing::{timestamp_from_unix_micros, SecretKey, Verifier, VerifyError};
-use super::MessageMeta;
+use super::{v2, MessageMeta};
+use core::fmt;
 
 mod counters;
 mod filter;
@@ -131,23 +132,44 @@ struct Seen {
 /// # use ferrolink_runtime::mavlink::router::Router;
 /// let r: Router<65> = Router::new(&[]);
 /// ```
-#[derive(Debug, Clone)]
+#[derive(Clone)]
 pub struct Router<
     const LINKS: usize = 4,
     const ROUTES: usize = 32,
     const SOURCES: usize = 32,
     const DEDUP: usize = 64,
     Rules = Filter,
+    Table = &'static [MessageMeta],
 > {
-    parsers: [Parser; LINKS],
+    /// Each link's parser holds a clone of the table (a reference or a shared pointer).
+    table: Table,
+    parsers: [Parser<{ v2::MAX_FRAME_LEN }, Table>; LINKS],
     /// Parser counters already added to the link counters.
     parsed: [ParserStats; LINKS],
     state: State<LINKS, ROUTES, SOURCES, DEDUP, Rules>,
 }
 
+impl<
+        const LINKS: usize,
+        const ROUTES: usize,
+        const SOURCES: usize,
+        const DEDUP: usize,
+        Rules: fmt::Debug,
+        Table: AsRef<[MessageMeta]>,
+    > fmt::Debug for Router<LINKS, ROUTES, SOURCES, DEDUP, Rules, Table>
+{
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Router")
+            .field("messages", &self.table.as_ref().len())
+            .field("parsers", &self.parsers)
+            .field("state", &self.state)
+            .finish()
+    }
+}
+
 /// The sizes of the router daemon on a PC: every link slot, 512 routes, 256 sources and 256
 /// remembered frames.
-pub type Daemon = Router<MAX_LINKS, 512, 256, 256>;
+pub type Daemon<Table = &'static [MessageMeta]> = Router<MAX_LINKS, 512, 256, 256, Filter, Table>;
 
 /// Everything but the parsers, so a frame borrowed from a parser can be routed in place.
 #[derive(Debug, Clone)]
@@ -158,7 +180,6 @@ struct State<
     const DEDUP: usize,
     Rules,
 > {
-    table: &'static [MessageMeta],
     links: [Link<Rules>; LINKS],
     routes: [Option<Route>; ROUTES],
     sources: [Option<SourceCounters>; SOURCES],
@@ -181,20 +202,21 @@ impl<
         const SOURCES: usize,
         const DEDUP: usize,
         Rules: LinkFilter,
-    > Router<LINKS, ROUTES, SOURCES, DEDUP, Rules>
+        Table: AsRef<[MessageMeta]> + Clone,
+    > Router<LINKS, ROUTES, SOURCES, DEDUP, Rules, Table>
 {
     const LINKS_FIT_THE_MASK: () = assert!(LINKS <= MAX_LINKS, "Router<LINKS> needs LINKS <= 64");
 
-    /// A router checking frames against `table` (sorted by id, as a dialect's `META` is), with
-    /// no links open.
-    pub fn new(table: &'static [MessageMeta]) -> Self {
+    /// A router checking frames against `table` (sorted by id, as a dialect's `META` is, or
+    /// built at run time and shared, as an `Arc<[MessageMeta]>`), with no links open.
+    pub fn new(table: Table) -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::LINKS_FIT_THE_MASK;
         Self {
-            parsers: core::array::from_fn(|_| Parser::new(table)),
+            parsers: core::array::from_fn(|_| Parser::new(table.clone())),
             parsed: [ParserStats::default(); LINKS],
+            table,
             state: State {
-                table,
                 links: core::array::from_fn(|_| Link::default()),
                 routes: [None; ROUTES],
                 sources: [None; SOURCES],
@@ -208,8 +230,8 @@ impl<
     }
 
     /// The message table.
-    pub fn table(&self) -> &'static [MessageMeta] {
-        self.state.table
+    pub fn table(&self) -> &[MessageMeta] {
+        self.table.as_ref()
     }
 
     /// How long a route lives without traffic (0: forever).
@@ -222,7 +244,7 @@ impl<
     pub fn open_link(&mut self, config: LinkConfig<Rules>) -> Option<usize> {
         let index = self.state.links.iter().position(|l| !l.open)?;
         let parser = self.parsers.get_mut(index)?;
-        *parser = Parser::new(self.state.table).pass_unknown_ids(!config.drop_unknown_ids);
+        *parser = Parser::new(self.table.clone()).pass_unknown_ids(!config.drop_unknown_ids);
         *self.parsed.get_mut(index)? = ParserStats::default();
         *self.state.links.get_mut(index)? = Link {
             open: true,
