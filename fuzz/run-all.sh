@@ -47,8 +47,10 @@ run_one() {
 export -f run_one
 printf '%s\n' "${targets[@]}" | xargs -P "$jobs" -I{} bash -c "run_one {} $seconds"
 
+over_budget=0
 if [ -n "${FUZZ_MERGE:-}" ]; then
   # What `cargo fuzz cmin` does, over the campaign's finds and the committed corpus together.
+  # The budget per target (README.md): 1 MiB and 2,000 inputs.
   for t in "${targets[@]}"; do
     fresh=$(mktemp -d)
     dirs=()
@@ -57,7 +59,13 @@ if [ -n "${FUZZ_MERGE:-}" ]; then
     rm -rf "corpora/$t"
     mkdir -p corpora
     mv "$fresh" "corpora/$t"
-    echo "$t: $(ls "corpora/$t" | wc -l) inputs, $(du -sk "corpora/$t" | cut -f1) KiB in corpora/$t"
+    inputs=$(find "corpora/$t" -type f | wc -l)
+    bytes=$(find "corpora/$t" -type f -printf '%s\n' | awk '{s += $1} END {print s + 0}')
+    echo "$t: $inputs inputs, $((bytes / 1024)) KiB in corpora/$t"
+    if [ "$inputs" -gt 2000 ] || [ "$bytes" -gt $((1024 * 1024)) ]; then
+      echo "$t: over the corpus budget (1 MiB, 2,000 inputs)" >&2
+      over_budget=1
+    fi
   done
 fi
 
@@ -77,4 +85,4 @@ for t in "${targets[@]}"; do
     grep -E 'panicked|ERROR|Test unit written' "$log" | head -5 || true
   fi
 done
-exit $failed
+exit $((failed | over_budget))

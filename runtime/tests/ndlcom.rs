@@ -305,3 +305,57 @@ fn fuzz_regression_mode_change_mid_frame() {
         hex::decode("00ffff0000e7007e30ff7a7e012c7e00ffffffff007e000000000021ff0003").expect("hex");
     scripts::check_bridge(&script);
 }
+
+/// A frame is forwarded in the mode its pair had when the frame began: changing the mode while a
+/// frame is arriving finishes that frame whole, once, in the old mode, and the next frame goes in
+/// the new one. For every interface pair and both directions of the change.
+#[test]
+fn a_mode_change_mid_frame_finishes_the_frame_in_the_mode_it_began() {
+    use ferrolink_runtime::ndlcom::bridge::{Bridge, Mode};
+    type B = Bridge<3, { storage_len(255) }, 600>;
+    let encoded = |counter: u8| {
+        let payload = [0x7E, 0x7D, counter, 0x7E, 1, 2, 3, 4];
+        let mut buf = [0u8; 64];
+        let n = encode(&Header::new(20, 30, counter, 8), &payload, &mut buf).expect("fits");
+        buf[..n].to_vec()
+    };
+    let drain = |b: &mut B, i: usize| {
+        let mut out = [0u8; 1024];
+        let n = b.transmit(i, &mut out);
+        out[..n].to_vec()
+    };
+    for from in 0..3 {
+        for to in (0..3).filter(|&to| to != from) {
+            let other = 3 - from - to;
+            for (before, after) in [
+                (Mode::StoreForward, Mode::CutThrough),
+                (Mode::CutThrough, Mode::StoreForward),
+            ] {
+                let case = format!("{from} -> {to}, {before:?} -> {after:?}");
+                let mut b = B::new();
+                b.router_mut().add_own_id(1);
+                b.router_mut().seed(20, to);
+                b.set_mode(from, to, before);
+                let first = encoded(1);
+                let half = first.len() / 2;
+                b.receive(from, &first[..half], 0, |_| panic!("{case}: not for this node"));
+                let streaming = b.pending(to) > 0;
+                assert_eq!(streaming, before == Mode::CutThrough, "{case}: first half");
+                b.set_mode(from, to, after);
+                b.receive(from, &first[half..], 10, |_| panic!("{case}: not for this node"));
+                assert_eq!(drain(&mut b, to), first, "{case}: the frame, whole and once");
+                assert!(drain(&mut b, other).is_empty(), "{case}: nothing elsewhere");
+                assert!(drain(&mut b, from).is_empty(), "{case}: nothing back");
+                assert_eq!(b.router().lookup(30), Some(from), "{case}: learned");
+
+                // The next frame goes in the new mode.
+                let second = encoded(2);
+                b.receive(from, &second[..2], 20, |_| panic!("{case}: not for this node"));
+                assert_eq!(b.pending(to) > 0, after == Mode::CutThrough, "{case}: next");
+                b.receive(from, &second[2..], 30, |_| panic!("{case}: not for this node"));
+                assert_eq!(drain(&mut b, to), second, "{case}: the next frame");
+                assert_eq!(b.stats(from).rx_frames, 2, "{case}");
+            }
+        }
+    }
+}
