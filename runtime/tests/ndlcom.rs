@@ -338,21 +338,33 @@ fn a_mode_change_mid_frame_finishes_the_frame_in_the_mode_it_began() {
                 b.set_mode(from, to, before);
                 let first = encoded(1);
                 let half = first.len() / 2;
-                b.receive(from, &first[..half], 0, |_| panic!("{case}: not for this node"));
+                b.receive(from, &first[..half], 0, |_| {
+                    panic!("{case}: not for this node")
+                });
                 let streaming = b.pending(to) > 0;
                 assert_eq!(streaming, before == Mode::CutThrough, "{case}: first half");
                 b.set_mode(from, to, after);
-                b.receive(from, &first[half..], 10, |_| panic!("{case}: not for this node"));
-                assert_eq!(drain(&mut b, to), first, "{case}: the frame, whole and once");
+                b.receive(from, &first[half..], 10, |_| {
+                    panic!("{case}: not for this node")
+                });
+                assert_eq!(
+                    drain(&mut b, to),
+                    first,
+                    "{case}: the frame, whole and once"
+                );
                 assert!(drain(&mut b, other).is_empty(), "{case}: nothing elsewhere");
                 assert!(drain(&mut b, from).is_empty(), "{case}: nothing back");
                 assert_eq!(b.router().lookup(30), Some(from), "{case}: learned");
 
                 // The next frame goes in the new mode.
                 let second = encoded(2);
-                b.receive(from, &second[..2], 20, |_| panic!("{case}: not for this node"));
+                b.receive(from, &second[..2], 20, |_| {
+                    panic!("{case}: not for this node")
+                });
                 assert_eq!(b.pending(to) > 0, after == Mode::CutThrough, "{case}: next");
-                b.receive(from, &second[2..], 30, |_| panic!("{case}: not for this node"));
+                b.receive(from, &second[2..], 30, |_| {
+                    panic!("{case}: not for this node")
+                });
                 assert_eq!(drain(&mut b, to), second, "{case}: the next frame");
                 assert_eq!(b.stats(from).rx_frames, 2, "{case}");
             }

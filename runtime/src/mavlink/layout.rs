@@ -43,12 +43,11 @@ pub trait Layout {
     const SYSID: usize;
     /// Offset of the component id.
     const COMPID: usize;
-    /// Offset of the message id.
-    const MSG_ID: usize;
-    /// Bytes of the message id (little-endian).
-    const MSG_ID_LEN: usize;
     /// Offset of the payload length.
     const LEN: usize = 1;
+
+    /// The message id in a frame's `bytes` (0 if they are too short).
+    fn msg_id(bytes: &[u8]) -> u32;
 
     /// Bytes after the checksum, as the header in `bytes` announces (MAVLink 2's signature).
     fn trailer_len(bytes: &[u8]) -> usize;
@@ -147,14 +146,7 @@ impl<T: AsRef<[u8]>, L: Layout> View<T, L> {
     /// The message id (8 bits in MAVLink 1, 24 in MAVLink 2).
     #[inline]
     pub fn msg_id(&self) -> u32 {
-        let mut raw = [0u8; 4];
-        match self.bytes().get(L::MSG_ID..L::MSG_ID + L::MSG_ID_LEN) {
-            Some(id) if id.len() <= 4 => {
-                raw[..id.len()].copy_from_slice(id);
-                u32::from_le_bytes(raw)
-            }
-            _ => 0,
-        }
+        L::msg_id(self.bytes())
     }
 
     /// Length of the frame from the magic byte to the end of the payload.

@@ -84,10 +84,13 @@ pub struct MessageMeta {
 /// Looks `id` up in a table sorted by id.
 #[inline]
 pub fn find_meta(table: &[MessageMeta], id: u32) -> Option<&MessageMeta> {
-    table
-        .binary_search_by_key(&id, |m| m.id)
-        .ok()
-        .and_then(|i| table.get(i))
+    find_index(table, id).and_then(|i| table.get(i))
+}
+
+/// Where `id` is in a table sorted by id.
+#[inline]
+pub(crate) fn find_index(table: &[MessageMeta], id: u32) -> Option<usize> {
+    table.binary_search_by_key(&id, |m| m.id).ok()
 }
 
 /// An id that the dialect does not define.

@@ -40,7 +40,7 @@ use core::fmt;
 
 use super::frame::{is_magic, AnyFrame};
 use super::layout::{body_checksum, Header};
-use super::{find_meta, v1, v2, Dialect, MessageMeta, UnknownMessageId};
+use super::{find_index, v1, v2, Dialect, MessageMeta, UnknownMessageId};
 use crate::bump;
 use crate::framing::{wide, Counters, Deframer};
 
@@ -103,7 +103,7 @@ pub use crate::framing::Feed;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ParsedFrame<'p> {
     frame: AnyFrame<&'p [u8]>,
-    meta: Option<MessageMeta>,
+    meta: Option<&'p MessageMeta>,
 }
 
 impl<'p> ParsedFrame<'p> {
@@ -121,8 +121,8 @@ impl<'p> ParsedFrame<'p> {
 
     /// The table entry of the message id, or `None` for an unknown id passed through unchecked.
     #[inline]
-    pub fn meta(&self) -> Option<&MessageMeta> {
-        self.meta.as_ref()
+    pub fn meta(&self) -> Option<&'p MessageMeta> {
+        self.meta
     }
 
     /// Whether the checksum was verified: false only for unknown ids passed through.
@@ -185,6 +185,15 @@ enum Reject {
     BadFlags,
 }
 
+/// Where a message's table entry is: in a dialect's static table (found through its dispatch),
+/// or at an index of the parser's own table. A reference into the parser's table is taken only
+/// when the frame is handed out, after the parser is done changing its state.
+#[derive(Debug, Clone, Copy)]
+enum MetaRef {
+    Static(&'static MessageMeta),
+    At(usize),
+}
+
 /// What the bytes of a candidate (starting at its magic byte) say so far.
 #[derive(Debug, Clone, Copy)]
 enum Eval {
@@ -193,14 +202,14 @@ enum Eval {
     Reject(Reject),
     Accept {
         len: usize,
-        meta: Option<MessageMeta>,
+        meta: Option<MetaRef>,
     },
 }
 
 /// Where an accepted frame lies.
 enum Found {
-    Buffer(usize, Option<MessageMeta>),
-    Input(usize, Option<MessageMeta>),
+    Buffer(usize, Option<MetaRef>),
+    Input(usize, Option<MetaRef>),
 }
 
 /// The stream parser, with an internal buffer of `N` bytes for frames split across `feed`
@@ -445,6 +454,7 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
             Some(&v1::MAGIC) => AnyFrame::V1(v1::Frame::new_unchecked(bytes)),
             _ => AnyFrame::V2(v2::Frame::new_unchecked(bytes)),
         };
+        let meta = meta.and_then(|m| self.resolve(m));
         Feed::Frame {
             frame: ParsedFrame { frame, meta },
             remaining: input,
@@ -454,7 +464,7 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
     /// Judges the one frame that starts at `bytes[0]`, without searching or buffering: for
     /// input whose frame boundaries are known, such as the records of a telemetry log. Counts
     /// nothing. `None` unless a whole frame that this parser would accept starts there.
-    pub fn parse_at<'a>(&self, bytes: &'a [u8]) -> Option<ParsedFrame<'a>> {
+    pub fn parse_at<'a>(&'a self, bytes: &'a [u8]) -> Option<ParsedFrame<'a>> {
         if !bytes.first().is_some_and(|&b| is_magic(b)) {
             return None;
         }
@@ -466,6 +476,7 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
             Some(&v1::MAGIC) => AnyFrame::V1(v1::Frame::new_unchecked(bytes)),
             _ => AnyFrame::V2(v2::Frame::new_unchecked(bytes)),
         };
+        let meta = meta.and_then(|m| self.resolve(m));
         Some(ParsedFrame { frame, meta })
     }
 
@@ -527,15 +538,27 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
     }
 
     #[inline]
-    fn lookup(&self, id: u32) -> Result<Option<MessageMeta>, Reject> {
+    fn lookup(&self, id: u32) -> Result<Option<(MetaRef, u8)>, Reject> {
         let found = match self.find {
-            Some(find) => find(id),
-            None => find_meta(self.table.as_ref(), id),
+            Some(find) => find(id).map(|m| (MetaRef::Static(m), m.crc_extra)),
+            None => {
+                let table = self.table.as_ref();
+                find_index(table, id).and_then(|i| Some((MetaRef::At(i), table.get(i)?.crc_extra)))
+            }
         };
         match found {
-            Some(meta) => Ok(Some(*meta)),
+            Some(meta) => Ok(Some(meta)),
             None if self.pass_unknown => Ok(None),
             None => Err(Reject::UnknownId),
+        }
+    }
+
+    /// The table entry `meta` points at.
+    #[inline]
+    fn resolve(&self, meta: MetaRef) -> Option<&MessageMeta> {
+        match meta {
+            MetaRef::Static(m) => Some(m),
+            MetaRef::At(i) => self.table.as_ref().get(i),
         }
     }
 
@@ -611,17 +634,23 @@ fn accept_if_crc_matches(
     frame: &[u8],
     body: usize,
     total: usize,
-    meta: Option<MessageMeta>,
+    meta: Option<(MetaRef, u8)>,
 ) -> Eval {
-    let Some(m) = meta else {
-        return Eval::Accept { len: total, meta };
+    let Some((at, crc_extra)) = meta else {
+        return Eval::Accept {
+            len: total,
+            meta: None,
+        };
     };
     let sent = match frame.get(body..body + 2) {
         Some(&[lo, hi]) => u16::from_le_bytes([lo, hi]),
         _ => return Eval::Reject(Reject::BadCrc),
     };
-    if body_checksum(frame.get(..body).unwrap_or_default(), m.crc_extra) == sent {
-        Eval::Accept { len: total, meta }
+    if body_checksum(frame.get(..body).unwrap_or_default(), crc_extra) == sent {
+        Eval::Accept {
+            len: total,
+            meta: Some(at),
+        }
     } else {
         Eval::Reject(Reject::BadCrc)
     }

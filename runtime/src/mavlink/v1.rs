@@ -46,8 +46,11 @@ impl Layout for V1 {
     const SEQ: usize = 2;
     const SYSID: usize = 3;
     const COMPID: usize = 4;
-    const MSG_ID: usize = 5;
-    const MSG_ID_LEN: usize = 1;
+
+    #[inline(always)]
+    fn msg_id(bytes: &[u8]) -> u32 {
+        bytes.get(5).map_or(0, |&id| u32::from(id))
+    }
 
     #[inline(always)]
     fn trailer_len(_: &[u8]) -> usize {

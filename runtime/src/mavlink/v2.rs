@@ -61,8 +61,14 @@ impl Layout for V2 {
     const SEQ: usize = 4;
     const SYSID: usize = 5;
     const COMPID: usize = 6;
-    const MSG_ID: usize = 7;
-    const MSG_ID_LEN: usize = 3;
+
+    #[inline(always)]
+    fn msg_id(bytes: &[u8]) -> u32 {
+        match bytes.get(7..10) {
+            Some(&[a, b, c]) => u32::from_le_bytes([a, b, c, 0]),
+            _ => 0,
+        }
+    }
 
     #[inline(always)]
     fn trailer_len(bytes: &[u8]) -> usize {
