@@ -60,9 +60,14 @@ impl From<Event<'_>> for Owned {
 pub trait Events: Sized {
     /// Starts receiving, and gives the sink the endpoint reports to.
     fn new() -> (Self, link::Sink);
-    /// An event that is already there.
-    fn try_next(&mut self) -> Option<Owned>;
+    /// An event that is already there; `Err` once the endpoint stopped and every event was
+    /// taken.
+    fn try_next(&mut self) -> Result<Option<Owned>, Stopped>;
 }
+
+/// The endpoint's threads stopped: no event will come.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Stopped;
 
 /// Events for the blocking API.
 #[derive(Debug)]
@@ -74,8 +79,12 @@ impl Events for Blocking {
         (Blocking(rx), Arc::new(move |e| tx.send(e.into()).is_ok()))
     }
 
-    fn try_next(&mut self) -> Option<Owned> {
-        self.0.try_recv().ok()
+    fn try_next(&mut self) -> Result<Option<Owned>, Stopped> {
+        match self.0.try_recv() {
+            Ok(event) => Ok(Some(event)),
+            Err(mpsc::TryRecvError::Empty) => Ok(None),
+            Err(mpsc::TryRecvError::Disconnected) => Err(Stopped),
+        }
     }
 }
 
@@ -91,8 +100,12 @@ impl Events for Async {
         (Async(rx), Arc::new(move |e| tx.send(e.into()).is_ok()))
     }
 
-    fn try_next(&mut self) -> Option<Owned> {
-        self.0.try_recv().ok()
+    fn try_next(&mut self) -> Result<Option<Owned>, Stopped> {
+        match self.0.try_recv() {
+            Ok(event) => Ok(Some(event)),
+            Err(tokio::sync::mpsc::error::TryRecvError::Empty) => Ok(None),
+            Err(tokio::sync::mpsc::error::TryRecvError::Disconnected) => Err(Stopped),
+        }
     }
 }
 
@@ -238,11 +251,22 @@ impl<D: Deframer + 'static, E: Events> Framed<D, E> {
         }
     }
 
-    /// Takes in everything that arrived, without waiting.
-    pub fn poll(&mut self, mut on_frame: impl FnMut(PeerId, D::Frame<'_>)) {
-        while let Some(event) = self.events.try_next() {
-            self.handle(event, &mut on_frame);
+    /// Takes in everything that arrived, without waiting. An error once the endpoint stopped.
+    pub fn poll(&mut self, mut on_frame: impl FnMut(PeerId, D::Frame<'_>)) -> io::Result<()> {
+        loop {
+            match self.events.try_next() {
+                Ok(Some(event)) => self.handle(event, &mut on_frame),
+                Ok(None) => return Ok(()),
+                Err(Stopped) => return Err(self.stopped()),
+            }
         }
+    }
+
+    /// Sends to any address from the endpoint's bound UDP socket, for protocols that fan out to
+    /// a list of addresses on a shared medium (ModRob's Ethernet-1). `None` if the endpoint is
+    /// no UDP socket.
+    pub fn sender_to(&self, to: SocketAddr) -> Option<Sender> {
+        self.handle.sender_to(to)
     }
 
     /// Sends `bytes` (a whole encoded frame) to every peer. Fails if there is no peer, or every
@@ -295,7 +319,7 @@ impl<D: Deframer + 'static> Framed<D, Blocking> {
             None => self.events.0.recv().map_err(|_| self.stopped())?,
         };
         self.handle(event, &mut on_frame);
-        self.poll(on_frame);
+        self.poll(on_frame)?;
         Ok(true)
     }
 }
@@ -309,7 +333,6 @@ impl<D: Deframer + 'static> Framed<D, Async> {
             Some(event) => self.handle(event, &mut on_frame),
             None => return Err(self.stopped()),
         }
-        self.poll(on_frame);
-        Ok(())
+        self.poll(on_frame)
     }
 }

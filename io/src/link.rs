@@ -25,9 +25,7 @@
 //! [`ndlcom::ENDPOINTS`](crate::ndlcom::ENDPOINTS)).
 //!
 //! A UDP endpoint also sends to any address from its bound socket ([`Handle::sender_to`]), for
-//! protocols that fan out to a list of addresses on a shared medium (ModRob's Ethernet-1) or
-//! pass frames around a ring (TosNet); [`datagrams`] hands such an endpoint's datagrams to a
-//! channel, for nodes that poll on a thread of their own.
+//! protocols that fan out to a list of addresses on a shared medium (ModRob's Ethernet-1).
 //!
 //! Threads, not an async runtime (measured against tokio in `cargo bench -p ferrolink-bench --bench
 //! router`): one blocking reader per socket or client, parked in the kernel
@@ -351,20 +349,6 @@ pub fn open(
         }
     };
     Ok(Handle { stop, local, udp })
-}
-
-/// A UDP endpoint bound to `local` whose datagrams (from any sender) arrive on a channel, for
-/// protocols that poll on a thread of their own (TosNet's UDP nodes, ModRob's Ethernet-1).
-/// Send with [`Handle::sender_to`].
-pub fn datagrams(local: SocketAddr) -> io::Result<(Handle, std::sync::mpsc::Receiver<Vec<u8>>)> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    let sink: Sink = Arc::new(move |event| match event {
-        Event::Rx { bytes, .. } => tx.send(bytes.to_vec()).is_ok(),
-        Event::Up { .. } | Event::Down { .. } => true,
-    });
-    let endpoint = Endpoint::UdpIn(local.ip().to_string(), local.port());
-    let handle = open(0, &endpoint, Options::default(), sink)?;
-    Ok((handle, rx))
 }
 
 fn spawn(name: &str, f: impl FnOnce() + Send + 'static) -> io::Result<()> {

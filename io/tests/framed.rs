@@ -54,8 +54,8 @@ fn serial_link<D: Deframer + Send + 'static>(
     let deadline = Instant::now() + WAIT;
     while ends.0.peers() == 0 || ends.1.peers() == 0 {
         assert!(Instant::now() < deadline, "the serial link did not come up");
-        ends.0.poll(|_, _| {});
-        ends.1.poll(|_, _| {});
+        ends.0.poll(|_, _| {}).unwrap();
+        ends.1.poll(|_, _| {}).unwrap();
         thread::sleep(Duration::from_millis(10));
     }
     ends

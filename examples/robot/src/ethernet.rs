@@ -67,7 +67,7 @@ pub enum Upstream {
 
 /// The leader's upstream port, open.
 enum UpPort {
-    Host(EthernetNode),
+    Host(Box<EthernetNode>),
     #[cfg(feature = "zenoh")]
     Zenoh(Box<ferrolink_zenoh::modrob::Upstream>),
 }
@@ -139,11 +139,11 @@ pub fn run(
         let node = EthernetNode::bind(addr(port(i)?), inst.uuid.unwrap_or_default(), peers)?;
         let upstream = match (i == r.leader, &upstream) {
             (false, _) => None,
-            (true, Upstream::Host) => Some(UpPort::Host(EthernetNode::bind(
+            (true, Upstream::Host) => Some(UpPort::Host(Box::new(EthernetNode::bind(
                 addr(port(n)?),
                 inst.uuid.unwrap_or_default(),
                 vec![addr(port(n + 1)?)],
-            )?)),
+            )?))),
             #[cfg(feature = "zenoh")]
             (true, Upstream::Zenoh(uri)) => Some(UpPort::Zenoh(Box::new(
                 ferrolink_zenoh::modrob::Upstream::open(

@@ -239,7 +239,9 @@ impl<E: Events> Connection<E> {
     /// Takes in what arrived without waiting (peers appearing and going too).
     pub fn poll(&mut self) {
         let queue = &mut self.queue;
-        self.framed
+        // A stopped endpoint shows at the next `recv`.
+        let _ = self
+            .framed
             .poll(|_, frame| queue.push_back(Frame::from(&frame)));
     }
 

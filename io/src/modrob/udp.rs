@@ -9,12 +9,12 @@
 
 use std::io;
 use std::net::SocketAddr;
-use std::sync::mpsc;
 
 use ferrolink_runtime::modrob::ethernet::{Packet, PacketBuilder, MAX_DATAGRAM_LEN};
 use ferrolink_runtime::modrob::Message;
 
-use crate::link::{self, Handle, Sender};
+use crate::framed::{Datagrams, Framed};
+use crate::link::{Endpoint, Sender};
 
 /// Traffic counters of one node.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -35,8 +35,8 @@ pub struct Stats {
 
 /// One module's Ethernet-1 endpoint.
 pub struct EthernetNode {
-    handle: Handle,
-    datagrams: mpsc::Receiver<Vec<u8>>,
+    /// Every datagram that arrives, from any sender, through the one read loop.
+    framed: Framed<Datagrams>,
     peers: Vec<(SocketAddr, Sender)>,
     uuid: [u8; 16],
     ulids: ulid::Generator,
@@ -47,7 +47,7 @@ pub struct EthernetNode {
 impl std::fmt::Debug for EthernetNode {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("EthernetNode")
-            .field("local", &self.handle.local_addr())
+            .field("local", &self.framed.local_addr())
             .field(
                 "peers",
                 &self.peers.iter().map(|(a, _)| a).collect::<Vec<_>>(),
@@ -61,10 +61,12 @@ impl std::fmt::Debug for EthernetNode {
 impl EthernetNode {
     /// Binds `local` for the module with UUID `uuid`, sending to `peers`.
     pub fn bind(local: SocketAddr, uuid: [u8; 16], peers: Vec<SocketAddr>) -> io::Result<Self> {
-        let (handle, datagrams) = link::datagrams(local)?;
+        let framed = Framed::open(
+            &Endpoint::UdpIn(local.ip().to_string(), local.port()),
+            Datagrams::default,
+        )?;
         let mut node = Self {
-            handle,
-            datagrams,
+            framed,
             peers: Vec::new(),
             uuid,
             ulids: ulid::Generator::new(),
@@ -77,17 +79,17 @@ impl EthernetNode {
 
     /// The bound address.
     pub fn local_addr(&self) -> io::Result<SocketAddr> {
-        self.handle
+        self.framed
             .local_addr()
             .ok_or_else(|| io::Error::from(io::ErrorKind::AddrNotAvailable))
     }
 
     /// Replaces the peers.
     pub fn set_peers(&mut self, peers: Vec<SocketAddr>) {
-        let handle = &self.handle;
+        let framed = &self.framed;
         self.peers = peers
             .into_iter()
-            .filter_map(|a| Some((a, handle.sender_to(a)?)))
+            .filter_map(|a| Some((a, framed.sender_to(a)?)))
             .collect();
     }
 
@@ -144,31 +146,26 @@ impl EthernetNode {
     /// blocking; returns how many messages.
     pub fn receive(&mut self, mut on_message: impl FnMut([u8; 16], Message)) -> io::Result<usize> {
         let mut n = 0;
-        loop {
-            let datagram = match self.datagrams.try_recv() {
-                Ok(datagram) => datagram,
-                Err(mpsc::TryRecvError::Empty) => return Ok(n),
-                Err(mpsc::TryRecvError::Disconnected) => {
-                    return Err(io::Error::other("the node's UDP endpoint stopped reading"));
-                }
+        let stats = &mut self.stats;
+        self.framed.poll(|_, datagram| {
+            let Ok(packet) = Packet::new_checked(datagram) else {
+                stats.malformed += 1;
+                return;
             };
-            let Ok(packet) = Packet::new_checked(&datagram) else {
-                self.stats.malformed += 1;
-                continue;
-            };
-            self.stats.packets_received += 1;
+            stats.packets_received += 1;
             let sender = packet.module_id();
             for message in packet.messages() {
                 match message {
                     Ok(m) => {
-                        self.stats.messages_received += 1;
+                        stats.messages_received += 1;
                         n += 1;
                         on_message(sender, m);
                     }
-                    Err(_) => self.stats.malformed += 1,
+                    Err(_) => stats.malformed += 1,
                 }
             }
-        }
+        })?;
+        Ok(n)
     }
 }
 

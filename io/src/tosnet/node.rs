@@ -137,7 +137,7 @@ where
             .map_or(MAX_WAIT, |t| Duration::from_nanos(t.saturating_sub(now)))
             .min(MAX_WAIT);
         // Learn the next node's link (a peer appears when it is connected), ignore what it says.
-        self.next.poll(|_, _| {});
+        self.next.poll(|_, _| {})?;
         let (node, tx, epoch) = (&mut self.node, &mut self.tx, self.epoch);
         let (next, wire, errors) = (&self.next, &mut self.wire, &mut self.send_errors);
         self.prev.wait(Some(wait), |_, frame| {
