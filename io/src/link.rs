@@ -74,6 +74,16 @@ pub enum Endpoint {
     Pty(String),
 }
 
+impl Endpoint {
+    /// Whether each read is one datagram (UDP), rather than a piece of a byte stream.
+    pub fn is_datagrams(&self) -> bool {
+        matches!(
+            self,
+            Endpoint::UdpIn(..) | Endpoint::UdpOut(..) | Endpoint::Udp(..)
+        )
+    }
+}
+
 impl fmt::Display for Endpoint {
     /// The canonical URI.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

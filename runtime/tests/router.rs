@@ -144,7 +144,7 @@ fn no_echo_even_when_the_target_sits_on_the_source_link() {
 }
 
 #[test]
-fn unknown_ids_are_broadcast_unchecked_and_teach_routes() {
+fn unknown_ids_are_broadcast_unchecked_and_teach_nothing() {
     let mut r = router(3);
     let unknown = frame(UNKNOWN, 7, 1, 0, (0, 0));
     let mut seen = Vec::new();
@@ -155,7 +155,13 @@ fn unknown_ids_are_broadcast_unchecked_and_teach_routes() {
     });
     assert_eq!(seen, [0b101]);
     assert_eq!(r.link_counters(1).unwrap().unchecked, 1);
+    // Its sender fields are unproven: no route, no source.
+    assert_eq!(r.routes().count(), 0);
+    assert_eq!(r.sources().count(), 0);
     let cmd = frame(COMMAND_LONG, 255, 190, 0, (7, 1));
+    assert_eq!(one(&mut r, 0, &cmd, 1), (0, Some(DropReason::NoRoute)));
+    // Once system 7 sends a frame that checks, it is routed to.
+    one(&mut r, 1, &heartbeat(7, 1), 0b101);
     assert_eq!(one(&mut r, 0, &cmd, 1), (0b010, None));
 }
 
@@ -490,7 +496,9 @@ proptest! {
             let d = r.link_counters(i).unwrap().drops;
             d.unsigned + d.bad_signature + d.duplicate + d.filtered_in
         }).sum();
-        prop_assert_eq!(sources + dropped_in, delivered);
+        // Frames with unknown ids pass unproven: they teach nothing, sources included.
+        let unchecked: u64 = (0..4).map(|i| r.link_counters(i).unwrap().unchecked).sum();
+        prop_assert_eq!(sources + dropped_in + unchecked, delivered);
     }
 }
 
@@ -540,8 +548,127 @@ fn a_router_without_filters_routes_the_same() {
         assert_eq!(lean_out, full_out, "from link {from}");
         assert_eq!(lean_out.len(), 1);
     }
-    assert!(
-        core::mem::size_of::<Router<3, 16, 0, 0, NoFilter>>() * 2
-            < core::mem::size_of::<Router<3, 16, 16, 16>>()
+    let (lean, full) = (
+        core::mem::size_of::<Router<3, 16, 0, 0, NoFilter>>(),
+        core::mem::size_of::<Router<3, 16, 16, 16>>(),
     );
+    assert!(lean * 2 <= full, "{lean} B against {full} B: at most half");
+}
+
+/// A router whose first `links` links take datagrams (UDP peers).
+fn datagram_router(links: usize) -> R {
+    let mut r = R::new(META);
+    for _ in 0..links {
+        r.open_link(LinkConfig {
+            datagrams: true,
+            ..LinkConfig::default()
+        })
+        .unwrap();
+    }
+    r
+}
+
+/// Random datagrams, as a scanner or a bad radio sends: some pass as frames with unknown ids
+/// (the spec wants those forwarded), none teaches a route or counts as a source, and commands
+/// still reach the vehicle.
+#[test]
+fn garbage_teaches_nothing() {
+    let mut r = datagram_router(3);
+    one(&mut r, 0, &heartbeat(1, 1), 0b110);
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let mut forwarded = 0;
+    for t in 0..5_000u64 {
+        let len = 1 + (seed % 300) as usize;
+        let datagram: Vec<u8> = (0..len)
+            .map(|_| {
+                seed ^= seed << 13;
+                seed ^= seed >> 7;
+                seed ^= seed << 17;
+                // Plenty of magic bytes, so that frames with unknown ids do turn up.
+                if seed.is_multiple_of(7) {
+                    0xFD
+                } else {
+                    seed as u8
+                }
+            })
+            .collect();
+        r.receive(1, &datagram, t, t, |routed| {
+            assert!(!routed.frame.is_checked(), "random bytes passed a checksum");
+            forwarded += u64::from(routed.to != 0);
+        });
+    }
+    assert!(
+        forwarded > 0,
+        "no unknown-id frame turned up: the test proves nothing"
+    );
+    assert!(
+        r.routes().all(|route| route.link == 0),
+        "garbage taught a route"
+    );
+    assert!(r.sources().all(|s| (s.sysid, s.compid) == (1, 1)));
+    let cmd = frame(COMMAND_LONG, 255, 190, 0, (1, 1));
+    assert_eq!(one(&mut r, 2, &cmd, 1), (0b001, None));
+}
+
+/// On a link of datagrams a frame cut off at a datagram's end is dropped and counted, never
+/// joined with the next datagram; a stream link keeps it waiting for the rest.
+#[test]
+fn a_datagram_is_a_boundary() {
+    let whole = heartbeat(1, 1);
+    let mut r = datagram_router(2);
+    let mut out = Vec::new();
+    r.receive(0, &whole[..10], 0, 0, |routed| {
+        out.push(routed.bytes.to_vec())
+    });
+    r.receive(0, &whole[10..], 0, 0, |routed| {
+        out.push(routed.bytes.to_vec())
+    });
+    r.receive(0, &whole, 0, 0, |routed| out.push(routed.bytes.to_vec()));
+    assert_eq!(out, std::slice::from_ref(&whole), "only the whole datagram's frame");
+    let c = r.link_counters(0).unwrap();
+    assert_eq!((c.truncated_datagrams, c.rx_frames), (1, 1));
+    assert_eq!(
+        c.garbage_bytes,
+        whole.len() as u64,
+        "the piece and the rest dropped"
+    );
+
+    let mut stream = router(2);
+    let mut out = Vec::new();
+    stream.receive(0, &whole[..10], 0, 0, |routed| {
+        out.push(routed.bytes.to_vec())
+    });
+    stream.receive(0, &whole[10..], 0, 0, |routed| {
+        out.push(routed.bytes.to_vec())
+    });
+    assert_eq!(out, [whole], "a stream joins the pieces");
+}
+
+/// One link floods (system, component) pairs it made up, in frames that check: it can only push
+/// out its own routes, never the vehicle's on another link.
+#[test]
+fn a_spoof_flood_cannot_evict_another_links_routes() {
+    let mut r = router(3);
+    one(&mut r, 0, &heartbeat(1, 1), 0b110);
+    one(&mut r, 2, &heartbeat(255, 190), 0b011);
+    for i in 0..1_000u32 {
+        let spoofed = heartbeat((i % 250) as u8 + 2, (i / 250) as u8 + 1);
+        r.receive(1, &spoofed, u64::from(i), u64::from(i), |_| {});
+    }
+    assert!(r.counters().routes_evicted > 900);
+    let cmd = frame(COMMAND_LONG, 255, 190, 0, (1, 1));
+    assert_eq!(
+        one(&mut r, 2, &cmd, 2),
+        (0b001, None),
+        "the vehicle is still routed"
+    );
+    let back = frame(COMMAND_LONG, 1, 1, 0, (255, 190));
+    assert_eq!(
+        one(&mut r, 0, &back, 1),
+        (0b100, None),
+        "and so is the ground station"
+    );
+    // The flood may fill what the other links leave free, and churns through that.
+    let held = r.routes().filter(|route| route.link == 1).count();
+    assert_eq!(held, 16 - 2);
 }

@@ -57,7 +57,11 @@ pub struct Dictionaries {
 /// The Zenoh endpoint of `uri` as an endpoint the router daemon attaches.
 pub fn attached(uri: ZenohUri, dictionaries: Dictionaries) -> Attached {
     Attached {
-        link: LinkConfig::default(),
+        // Every sample is one whole frame.
+        link: LinkConfig {
+            datagrams: true,
+            ..LinkConfig::default()
+        },
         open: Box::new(move |index, sink, status| {
             let running = open(index, &uri, dictionaries, sink, status)?;
             Ok(Box::new(running) as Box<dyn Send>)

@@ -255,6 +255,8 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
             max_delay_us: e.max_delay_ms.saturating_mul(1000),
             require_signing: e.signing_key.as_deref().map(|k| key(k, &at)).transpose()?,
             drop_unknown_ids: e.drop_unknown_ids,
+            // Set from the endpoint's kind when the router opens its links.
+            datagrams: false,
         };
         endpoints.push(EndpointConfig { endpoint, link });
     }

@@ -204,7 +204,10 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
         link_configs: config
             .endpoints
             .iter()
-            .map(|e| e.link.clone())
+            .map(|e| LinkConfig {
+                datagrams: e.endpoint.is_datagrams(),
+                ..e.link.clone()
+            })
             .chain(attached.iter().map(|a| a.link.clone()))
             .collect(),
         links: HashMap::new(),
@@ -304,7 +307,7 @@ fn counters_json(c: &LinkCounters) -> serde_json::Value {
         "rx_frames": c.rx_frames, "rx_bytes": c.rx_bytes,
         "tx_frames": c.tx_frames, "tx_bytes": c.tx_bytes,
         "unchecked": c.unchecked, "crc_failures": c.crc_failures,
-        "garbage_bytes": c.garbage_bytes,
+        "garbage_bytes": c.garbage_bytes, "truncated_datagrams": c.truncated_datagrams,
         "drops": {
             "unsigned": d.unsigned, "bad_signature": d.bad_signature,
             "duplicate": d.duplicate, "filtered_in": d.filtered_in,

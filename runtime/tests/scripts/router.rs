@@ -4,13 +4,18 @@
 //! `check_router`: the input is a script for a 4-link router; each operation's first byte picks
 //! raw bytes on a link, a well-formed frame (known or unknown id, v1 or v2, addressed or not,
 //! maybe corrupted) on a link, a clock step, or closing and reopening a link with another
-//! configuration (group, deduplication, required signing, filters). Checked: no panic; no frame
-//! goes back to its link or to a closed one; every frame handed out as checked passes its CRC
-//! with its table entry, and every unchecked one has an id the table lacks; a frame goes out
-//! exactly when it was not dropped; the counters add up (frames in = callbacks, frames out per
-//! link = copies routed to it, frames counted per source + inbound drops = frames in).
+//! configuration (group, deduplication, required signing, filters, datagrams). Checked: no
+//! panic; no frame goes back to its link or to a closed one; every frame handed out as checked
+//! passes its CRC with its table entry, and every unchecked one has an id the table lacks; a
+//! frame goes out exactly when it was not dropped; the counters add up (frames in = callbacks,
+//! frames out per link = copies routed to it, frames counted per source + inbound drops +
+//! unproven frames = frames in); only proven frames teach (every route is a sender heard on
+//! that link in a frame whose checksum or signature was checked); on a link of datagrams no
+//! frame spans two (each lies whole in the bytes of one receive).
 
-use ferrolink_runtime::mavlink::router::{Filter, LinkConfig, Router};
+use std::collections::HashSet;
+
+use ferrolink_runtime::mavlink::router::{DropReason, Filter, LinkConfig, Router};
 use ferrolink_runtime::mavlink::signing::SecretKey;
 use ferrolink_runtime::mavlink::{find_meta, v1, v2, Header, MessageMeta};
 
@@ -96,6 +101,7 @@ fn config(bits: u8) -> LinkConfig {
         dedup_window_us: if bits & 0x04 != 0 { 100_000 } else { 0 },
         drop_unknown_ids: bits & 0x08 != 0,
         require_signing: (bits & 0x10 != 0).then(|| SecretKey::new([7; 32])),
+        datagrams: bits & 0x80 != 0,
         ..LinkConfig::default()
     };
     if bits & 0x20 != 0 {
@@ -119,6 +125,12 @@ pub fn check_router(script: &[u8]) {
     let mut frames_in = [0u64; LINKS];
     let mut copies_out = [0u64; LINKS];
     let mut reopened = false;
+    // Per link: whether it requires signing and takes datagrams (from its configuration).
+    let mut signing = [false; LINKS];
+    let mut datagrams = [false; LINKS];
+    // Senders of proven frames, per link; and frames that passed inbound unproven.
+    let mut proven: HashSet<(usize, u8, u8)> = HashSet::new();
+    let mut unproven_in = 0u64;
     while let Some((&op, tail)) = rest.split_first() {
         rest = tail;
         let link = usize::from(op >> 2) % LINKS;
@@ -147,6 +159,8 @@ pub fn check_router(script: &[u8]) {
                 assert!(!router.is_open(link));
                 assert!(router.routes().all(|r| r.link != link));
                 assert_eq!(router.open_link(config(bits)), Some(link));
+                signing[link] = bits & 0x10 != 0;
+                datagrams[link] = bits & 0x80 != 0;
                 frames_in[link] = 0;
                 copies_out[link] = 0;
                 reopened = true;
@@ -166,11 +180,40 @@ pub fn check_router(script: &[u8]) {
                 None => assert!(find_meta(META, routed.frame.msg_id()).is_none()),
             }
             assert_eq!(routed.bytes, routed.frame.as_bytes());
+            if datagrams[link] {
+                assert!(
+                    bytes.windows(routed.bytes.len()).any(|w| w == routed.bytes),
+                    "a frame spans two datagrams"
+                );
+            }
+            let inbound_drop = matches!(
+                routed.dropped,
+                Some(
+                    DropReason::Unsigned
+                        | DropReason::BadSignature
+                        | DropReason::Duplicate
+                        | DropReason::FilteredIn
+                )
+            );
+            if !inbound_drop {
+                let h = routed.frame.header();
+                if routed.frame.is_checked() || signing[link] {
+                    proven.insert((link, h.sysid, h.compid));
+                } else {
+                    unproven_in += 1;
+                }
+            }
             frames_in[link] += 1;
             for (i, n) in copies_out.iter_mut().enumerate() {
                 *n += (routed.to >> i) & 1;
             }
         });
+        for r in router.routes() {
+            assert!(
+                proven.contains(&(r.link, r.sysid, r.compid)),
+                "route {r:?} learned from no proven frame"
+            );
+        }
     }
     let mut delivered_in = 0;
     let mut dropped_in = 0;
@@ -186,6 +229,6 @@ pub fn check_router(script: &[u8]) {
     // source takes its count along: compare only when neither happened.
     let counted: u64 = router.sources().map(|s| s.rx_frames).sum();
     if !reopened && router.counters().sources_evicted == 0 {
-        assert_eq!(counted + dropped_in, delivered_in);
+        assert_eq!(counted + dropped_in + unproven_in, delivered_in);
     }
 }

@@ -71,8 +71,12 @@ pub struct LinkCounters {
     pub unchecked: u64,
     /// Candidates that failed their checksum.
     pub crc_failures: u64,
-    /// Bytes the parser skipped: noise and rejected candidates.
+    /// Bytes the parser skipped: noise, rejected candidates, and what was left of frames cut
+    /// off at a datagram's end.
     pub garbage_bytes: u64,
+    /// Datagrams that ended inside a frame (on links of datagrams): the piece was dropped, not
+    /// joined with the next datagram.
+    pub truncated_datagrams: u64,
     /// Drops, by reason.
     pub drops: Drops,
 }
@@ -102,7 +106,8 @@ pub struct SourceCounters {
 /// Counters of the router as a whole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct RouterCounters {
-    /// Routes forgotten to make room for a new one.
+    /// Routes forgotten to make room for a new one: the learning link's own oldest once it holds
+    /// its share of the table, else the oldest of a link holding more than its share.
     pub routes_evicted: u64,
     /// Routes forgotten because they aged out.
     pub routes_expired: u64,

@@ -188,6 +188,12 @@ pub struct LinkConfig<Rules = Filter> {
     /// dropped).
     pub require_signing: Option<SecretKey>,
     /// Drop frames whose message id is missing from the table. By default they are passed
-    /// through, unchecked (their checksum needs the CRC_EXTRA the table lacks), as broadcasts.
+    /// through, unchecked (their checksum needs the CRC_EXTRA the table lacks), as broadcasts;
+    /// they never teach a route.
     pub drop_unknown_ids: bool,
+    /// Each [`Router::receive`](super::Router::receive) on this link is one datagram: a frame
+    /// never spans two, and bytes of a frame cut off at a datagram's end are dropped (counted in
+    /// [`LinkCounters::truncated_datagrams`](super::LinkCounters::truncated_datagrams) and the
+    /// garbage bytes). For UDP peers and other links that deliver whole messages.
+    pub datagrams: bool,
 }

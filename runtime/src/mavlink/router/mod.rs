@@ -338,6 +338,13 @@ impl<
                 dropped,
             });
         }
+        if let Some(link) = self.state.links.get_mut(from) {
+            if link.config.datagrams && parser.buffered() > 0 {
+                // The datagram ended inside a frame: drop the piece (as garbage bytes).
+                link.counters.truncated_datagrams += 1;
+                parser.reset();
+            }
+        }
         self.sync_parser_counters(from);
     }
 
@@ -415,8 +422,14 @@ impl<
             return self.drop_frame(from, DropReason::FilteredIn);
         }
 
-        self.count_source(header.sysid, header.compid, header.seq, len, rx_us);
-        self.learn(header.sysid, header.compid, from, rx_us);
+        // Only what is proven teaches: a checksum checked against the table, or a signature
+        // verified on a link that requires one. A frame with an unknown id is forwarded, but
+        // its sender fields could be noise.
+        let proven = frame.is_checked() || link_signs(&self.links, from);
+        if proven {
+            self.count_source(header.sysid, header.compid, header.seq, len, rx_us);
+            self.learn(header.sysid, header.compid, from, rx_us);
+        }
         if now_us.abs_diff(self.expired_at_us) >= EXPIRE_EVERY_US {
             self.expire(now_us);
         }
@@ -553,7 +566,37 @@ impl<
             link,
             last_seen_us: now_us,
         };
-        if insert_or_evict(&mut self.routes, route, |r| r.last_seen_us) {
+        if let Some(free) = self.routes.iter_mut().find(|s| s.is_none()) {
+            *free = Some(route);
+            return;
+        }
+        // The table is full. Each open link's share is an equal part of it: a link at its share
+        // makes room among its own routes, so one link's flood of (spoofed) sources never
+        // pushes out another link's; a link below its share takes the place of the oldest route
+        // of a link above its own.
+        let share = (ROUTES / (self.open_mask().count_ones() as usize).max(1)).max(1);
+        let mut held = [0usize; LINKS];
+        for r in self.routes.iter().flatten() {
+            if let Some(n) = held.get_mut(r.link) {
+                *n += 1;
+            }
+        }
+        let mine = held.get(link).copied().unwrap_or(0);
+        let victim = self
+            .routes
+            .iter_mut()
+            .filter(|s| {
+                s.is_some_and(|r| {
+                    if mine >= share {
+                        r.link == link
+                    } else {
+                        held.get(r.link).is_some_and(|&n| n > share)
+                    }
+                })
+            })
+            .min_by_key(|s| s.map_or(0, |r| r.last_seen_us));
+        if let Some(victim) = victim {
+            *victim = Some(route);
             self.counters.routes_evicted += 1;
         }
     }
@@ -631,6 +674,11 @@ fn insert_or_evict<T: Copy>(slots: &mut [Option<T>], item: T, age: impl Fn(&T) -
         }
         None => false,
     }
+}
+
+/// Whether link `from` checks signatures, so that a frame that passed them is proven.
+fn link_signs<Rules>(links: &[Link<Rules>], from: usize) -> bool {
+    links.get(from).is_some_and(|l| l.verifier.is_some())
 }
 
 /// The target of an addressed message: `(target_system, target_component)`, the component 0
