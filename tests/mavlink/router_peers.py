@@ -954,6 +954,27 @@ def check_several_frames_in_one_datagram(h):
         h.deliver("COMMAND_LONG %d of one datagram" % tag, is_command(tag), [gcs])
 
 
+def check_a_datagram_is_a_boundary(h):
+    """A frame cut in two by datagrams is dropped, not joined with the next datagram."""
+    a, b = free_ports(socket.SOCK_DGRAM, 2)
+    h.start_router([udpin(a), udpin(b)])
+    src = h.raw("source", a, 1, 1, mavlink.MAV_TYPE_QUADROTOR)
+    gcs = h.mav("gcs", udp_peer(b), 255, 190, mavlink.MAV_TYPE_GCS)
+    h.mesh([src, gcs])
+    cut, whole = h.next_tag(), h.next_tag()
+    frames = []
+    for tag in (cut, whole):
+        msg = src.encoder.command_long_encode(0, 0, CMD, 0, float(tag), 0, 0, 0, 0, 0, 0)
+        frames.append(bytes(msg.pack(src.encoder)))
+        src.encoder.seq = (src.encoder.seq + 1) % 256
+    half = len(frames[0]) // 2
+    src.send_raw(frames[0][:half], frame=False)
+    src.send_raw(frames[0][half:] + frames[1], frame=False)
+    src.sent.append(frames[1])
+    h.deliver("COMMAND_LONG %d after a cut one" % whole, is_command(whole), [gcs])
+    h.deliver("COMMAND_LONG %d cut across two datagrams" % cut, is_command(cut), [])
+
+
 def check_serial(h):
     """A device on a serial line (a pty) and a GCS on UDP, both ways."""
     (port,) = free_ports(socket.SOCK_DGRAM, 1)
@@ -979,6 +1000,7 @@ CHECKS = [
     ("tcpout_reconnect", check_tcpout_reconnect),
     ("tcpin_many", check_tcpin_many),
     ("several_frames_in_one_datagram", check_several_frames_in_one_datagram),
+    ("a_datagram_is_a_boundary", check_a_datagram_is_a_boundary),
     ("serial", check_serial),
     ("tlog", check_tlog),
 ]
