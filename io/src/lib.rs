@@ -8,7 +8,8 @@
 //!
 //! All of them open their sockets, devices and pseudo-terminals through one link layer,
 //! [`link`], named by URIs of one grammar, [`uri`], in which each protocol declares its
-//! schemes and defaults (NDLCom keeps the forms of its C reference implementation).
+//! schemes and defaults (NDLCom keeps the forms of its C reference implementation), and read
+//! frames through one loop, [`framed`], over any protocol's stream parser.
 
 #![warn(missing_docs)]
 

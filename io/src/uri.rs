@@ -569,8 +569,19 @@ impl<'u> Parts<'u> {
     fn serial(&self, rest: &str, default: u32) -> Result<Endpoint, UriError> {
         let split = rest
             .rsplit_once(':')
-            .or_else(|| rest.rsplit_once(',').filter(|_| self.loose))
-            .filter(|(_, b)| !b.is_empty() && b.bytes().all(|c| c.is_ascii_digit()));
+            .or_else(|| rest.rsplit_once(',').filter(|_| self.loose));
+        // Any other `:` belongs to the path (`/dev/serial/by-path/...-usb-0:2:1.0-port0`), but a
+        // word after the last one is a mistyped speed, not a device: a path retried forever.
+        if let Some((_, tail)) = split {
+            let word = tail.bytes().all(|c| c.is_ascii_alphanumeric() || c == b'_');
+            if !tail.is_empty() && word && !tail.bytes().all(|c| c.is_ascii_digit()) {
+                return Err(self.err(
+                    tail,
+                    format!("bad baud rate {tail:?}: expected digits, e.g. :57600"),
+                ));
+            }
+        }
+        let split = split.filter(|(_, b)| !b.is_empty() && b.bytes().all(|c| c.is_ascii_digit()));
         let (path, baud) = match split {
             Some((path, baud)) => (
                 path,

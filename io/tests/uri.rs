@@ -324,6 +324,7 @@ fn errors_point_at_the_offending_part() {
         ("udp://my host", "my host"),
         ("udp://h&1,0x100", "0x100"),
         ("serial:///dev/ttyUSB0:0", "0"),
+        ("serial:///dev/ttyUSB0:fast", "fast"),
         ("http://example.com", "http"),
         ("tcp-listen://host", ""),
     ] {

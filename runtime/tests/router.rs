@@ -624,7 +624,11 @@ fn a_datagram_is_a_boundary() {
         out.push(routed.bytes.to_vec())
     });
     r.receive(0, &whole, 0, 0, |routed| out.push(routed.bytes.to_vec()));
-    assert_eq!(out, std::slice::from_ref(&whole), "only the whole datagram's frame");
+    assert_eq!(
+        out,
+        std::slice::from_ref(&whole),
+        "only the whole datagram's frame"
+    );
     let c = r.link_counters(0).unwrap();
     assert_eq!((c.truncated_datagrams, c.rx_frames), (1, 1));
     assert_eq!(

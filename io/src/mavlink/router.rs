@@ -187,16 +187,46 @@ fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
     state.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
+/// Creates the file an option names; the error names the option and the path, and says when
+/// the directory is missing.
+fn create(option: &str, path: &std::path::Path) -> io::Result<File> {
+    File::create(path).map_err(|e| {
+        let hint = match path.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => {
+                format!("\n  hint: the directory {} does not exist", dir.display())
+            }
+            _ => String::new(),
+        };
+        io::Error::new(e.kind(), format!("{option} {}: {e}{hint}", path.display()))
+    })
+}
+
 /// Runs the router on the configured endpoints and the `attached` ones (numbered after them)
 /// until `run_for` elapses or `stop` is set. Prints `ready` on stdout once every endpoint is
 /// bound and listening.
 pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> io::Result<()> {
+    if config.endpoints.is_empty() && attached.is_empty() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "no endpoints to route between\n  hint: give them as arguments \
+             (udpin://0.0.0.0:14550 serial:///dev/ttyACM0:57600 ...) or as [[endpoint]] tables \
+             in the --config file",
+        ));
+    }
+    if config.peer_expiry == Some(Duration::ZERO) {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "peer expiry 0 s: every UDP peer would be forgotten at once\n  hint: give the \
+             seconds a UDP peer may be quiet before it is forgotten, e.g. --peer-expiry 10 (the \
+             default)",
+        ));
+    }
     let tlog = match &config.tlog {
-        Some(path) => Some(tlog::Writer::new(BufWriter::new(File::create(path)?))),
+        Some(path) => Some(tlog::Writer::new(BufWriter::new(create("--tlog", path)?))),
         None => None,
     };
     let mut stats_json = match &config.stats_json {
-        Some(path) => Some(BufWriter::new(File::create(path)?)),
+        Some(path) => Some(BufWriter::new(create("--stats-json", path)?)),
         None => None,
     };
     let state = Arc::new(Mutex::new(State {

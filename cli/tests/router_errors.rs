@@ -1,0 +1,56 @@
+//! What `ferrolink mavlink router` says about a command line it cannot run: each error names the
+//! value or path and gives a hint, and the router exits at once with status 1 instead of
+//! running (or retrying forever).
+
+use std::process::Command;
+
+/// Stderr of a router run that must fail at once.
+fn refused(args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_ferrolink"))
+        .args(["mavlink", "router", "--run-for", "5"])
+        .args(args)
+        .output()
+        .expect("ferrolink runs");
+    assert_eq!(out.status.code(), Some(1), "{args:?} should fail");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+#[test]
+fn a_tlog_in_a_missing_directory() {
+    insta::assert_snapshot!(refused(&["--tlog", "/nonexistent/dir/x.tlog", "udpin://127.0.0.1:0"]), @r"
+    --tlog /nonexistent/dir/x.tlog: No such file or directory (os error 2)
+      hint: the directory /nonexistent/dir does not exist
+    ");
+}
+
+#[test]
+fn a_word_for_a_baud_rate() {
+    let err = refused(&["serial:///dev/null:abc"]);
+    // The hint lists every accepted form; the first lines are the point.
+    let head: Vec<&str> = err.lines().take(3).collect();
+    insta::assert_snapshot!(head.join("\n"), @r#"
+    bad baud rate "abc": expected digits, e.g. :57600
+      serial:///dev/null:abc
+                         ^
+    "#);
+    assert!(err.contains("hint: accepted forms: "), "{err}");
+}
+
+#[test]
+fn a_peer_expiry_of_zero() {
+    insta::assert_snapshot!(refused(&["--peer-expiry", "0", "udpin://127.0.0.1:0"]), @r"
+    peer expiry 0 s: every UDP peer would be forgotten at once
+      hint: give the seconds a UDP peer may be quiet before it is forgotten, e.g. --peer-expiry 10 (the default)
+    ");
+}
+
+#[test]
+fn a_configuration_without_endpoints() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("router.toml");
+    std::fs::write(&config, "# nothing to route\n").expect("write");
+    insta::assert_snapshot!(refused(&["--config", config.to_str().expect("utf-8")]), @r"
+    no endpoints to route between
+      hint: give them as arguments (udpin://0.0.0.0:14550 serial:///dev/ttyACM0:57600 ...) or as [[endpoint]] tables in the --config file
+    ");
+}
