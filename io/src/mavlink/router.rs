@@ -73,6 +73,9 @@ struct State {
     /// The link configuration of every endpoint, attached ones last.
     link_configs: Vec<LinkConfig>,
     links: HashMap<PeerId, Link>,
+    /// Peers refused a slot when they came up, with their endpoint: offered one again at their
+    /// next read, once one is free.
+    waiting: HashMap<PeerId, (usize, String, Sender)>,
     by_slot: Vec<Option<PeerId>>,
     tlog: Option<tlog::Writer<BufWriter<File>>>,
     tlog_error: Option<io::Error>,
@@ -88,26 +91,12 @@ impl State {
                 name,
                 sender,
             } => {
-                let link = self.link_configs.get(endpoint).cloned().unwrap_or_default();
-                let Some(slot) = self.router.open_link(link) else {
-                    self.refused += 1;
-                    eprintln!("link refused: {name}: all {MAX_LINKS} links in use");
-                    return;
-                };
-                self.by_slot[slot] = Some(peer);
-                eprintln!("link up: {name}");
-                let tx_errors = 0;
-                self.links.insert(
-                    peer,
-                    Link {
-                        slot,
-                        name,
-                        sender,
-                        tx_errors,
-                    },
-                );
+                self.admit(endpoint, peer, name, sender);
             }
             Event::Rx { peer, bytes, at } => {
+                if let Some((endpoint, name, sender)) = self.waiting.remove(&peer) {
+                    self.admit(endpoint, peer, name, sender);
+                }
                 let Some(from) = self.links.get(&peer).map(|l| l.slot) else {
                     return;
                 };
@@ -145,6 +134,7 @@ impl State {
                 });
             }
             Event::Down { peer, why } => {
+                self.waiting.remove(&peer);
                 if let Some(link) = self.links.remove(&peer) {
                     self.router.close_link(link.slot);
                     self.by_slot[link.slot] = None;
@@ -156,6 +146,32 @@ impl State {
 }
 
 impl State {
+    /// Gives a peer a link slot; without a free one, it waits for one (see `waiting`). Returns
+    /// whether it got one.
+    fn admit(&mut self, endpoint: usize, peer: PeerId, name: String, sender: Sender) -> bool {
+        let link = self.link_configs.get(endpoint).cloned().unwrap_or_default();
+        let Some(slot) = self.router.open_link(link) else {
+            if !self.waiting.contains_key(&peer) {
+                self.refused += 1;
+                eprintln!("link refused for now: {name}: all {MAX_LINKS} links in use");
+            }
+            self.waiting.insert(peer, (endpoint, name, sender));
+            return false;
+        };
+        self.by_slot[slot] = Some(peer);
+        eprintln!("link up: {name}");
+        self.links.insert(
+            peer,
+            Link {
+                slot,
+                name,
+                sender,
+                tx_errors: 0,
+            },
+        );
+        true
+    }
+
     fn status(&self) -> serde_json::Value {
         let name = |slot: usize| {
             self.by_slot
@@ -241,6 +257,7 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
             .chain(attached.iter().map(|a| a.link.clone()))
             .collect(),
         links: HashMap::new(),
+        waiting: HashMap::new(),
         by_slot: vec![None; MAX_LINKS],
         tlog,
         tlog_error: None,

@@ -1,0 +1,97 @@
+//! The router daemon's admission: a peer refused because every link slot was taken is offered a
+//! slot again once one frees, even while it keeps sending (it never goes quiet, so the link
+//! layer never reports it anew).
+
+use std::net::UdpSocket;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::thread;
+use std::time::{Duration, Instant};
+
+use ferrolink_io::link::Endpoint;
+use ferrolink_io::mavlink::config::EndpointConfig;
+use ferrolink_io::mavlink::router::{self, Config};
+use ferrolink_runtime::mavlink::router::MAX_LINKS;
+use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
+
+static META: &[MessageMeta] = &[MessageMeta {
+    id: 0,
+    crc_extra: 50,
+    min_len: 9,
+    max_len: 9,
+    target_system: None,
+    target_component: None,
+}];
+
+fn heartbeat(sysid: u8) -> Vec<u8> {
+    let mut out = [0u8; v2::MAX_FRAME_LEN];
+    let n = v2::encode_raw(Header::new(0, sysid, 1), 0, 50, &[0; 9], &mut out).expect("fits");
+    out[..n].to_vec()
+}
+
+fn peer() -> UdpSocket {
+    let s = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    s.set_read_timeout(Some(Duration::from_millis(50)))
+        .expect("timeout");
+    s
+}
+
+#[test]
+fn a_refused_peer_gets_a_slot_once_one_frees() {
+    let port = UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .expect("a free port")
+        .port();
+    let config = Config {
+        endpoints: vec![EndpointConfig::new(Endpoint::UdpIn(
+            "127.0.0.1".into(),
+            port,
+        ))],
+        table: META.into(),
+        peer_expiry: Some(Duration::from_millis(800)),
+        ..Config::default()
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let router = {
+        let stop = stop.clone();
+        thread::spawn(move || router::run(&config, Vec::new(), &stop))
+    };
+    thread::sleep(Duration::from_millis(200));
+    let to = ("127.0.0.1", port);
+
+    // Every slot taken by peers that then go quiet.
+    let fillers: Vec<UdpSocket> = (0..MAX_LINKS).map(|_| peer()).collect();
+    for (i, f) in fillers.iter().enumerate() {
+        f.send_to(&heartbeat(i as u8 + 1), to).expect("send");
+    }
+    thread::sleep(Duration::from_millis(100));
+    // The late peer is refused, and keeps sending.
+    let late = peer();
+    let keep_sending = Arc::new(AtomicBool::new(true));
+    let sender = {
+        let (late, keep) = (late.try_clone().expect("clone"), keep_sending.clone());
+        thread::spawn(move || {
+            while keep.load(Ordering::Relaxed) {
+                let _ = late.send_to(&heartbeat(200), to);
+                thread::sleep(Duration::from_millis(50));
+            }
+        })
+    };
+    // Once the fillers expired, a watcher joins and must hear the late peer.
+    thread::sleep(Duration::from_millis(1_500));
+    let watcher = peer();
+    watcher.send_to(&heartbeat(250), to).expect("send");
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut heard = false;
+    let mut buf = [0u8; 512];
+    while !heard && Instant::now() < deadline {
+        if let Ok(n) = watcher.recv(&mut buf) {
+            heard = buf[..n] == heartbeat(200)[..];
+        }
+    }
+    keep_sending.store(false, Ordering::Relaxed);
+    sender.join().expect("sender");
+    stop.store(true, Ordering::Relaxed);
+    router.join().expect("router thread").expect("router ran");
+    assert!(heard, "the refused peer never got a slot");
+}
