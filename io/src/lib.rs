@@ -43,6 +43,12 @@ trait LinkReader: Send {
 trait LinkWriter: Send {
     /// Writes all of `bytes` or fails.
     fn write_all(&mut self, bytes: &[u8]) -> io::Result<()>;
+
+    /// Ends a connection that can be ended (a TCP client; its reader then sees the end and the
+    /// peer goes down); `false` for a device, which stays.
+    fn close(&mut self) -> bool {
+        false
+    }
 }
 
 /// The halves every transport module hands back.

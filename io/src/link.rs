@@ -204,6 +204,19 @@ impl Sender {
             SenderKind::Fn(write) => write(bytes),
         }
     }
+
+    /// Ends the peer's connection if it has one to end (a TCP client or server): its reader
+    /// sees the end, reports the peer down and closes the socket. `false` for a UDP peer, a
+    /// device or a pty, which stay.
+    pub fn close(&self) -> bool {
+        match &self.0 {
+            SenderKind::Stream(stream) => stream
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .close(),
+            SenderKind::Udp(..) | SenderKind::Fn(_) => false,
+        }
+    }
 }
 
 /// Options of [`open`].

@@ -55,4 +55,8 @@ impl LinkWriter for TcpWriter {
     fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
         self.stream.write_all(bytes).map_err(write_error)
     }
+
+    fn close(&mut self) -> bool {
+        self.stream.shutdown(std::net::Shutdown::Both).is_ok()
+    }
 }

@@ -95,3 +95,47 @@ fn a_refused_peer_gets_a_slot_once_one_frees() {
     router.join().expect("router thread").expect("router ran");
     assert!(heard, "the refused peer never got a slot");
 }
+
+/// A TCP client past the last link slot is closed at once: it keeps no thread or descriptor in
+/// the router, and sees its connection end.
+#[test]
+fn a_refused_tcp_client_is_closed() {
+    use std::io::Read;
+    use std::net::TcpStream;
+
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free port")
+        .port();
+    let config = Config {
+        endpoints: vec![EndpointConfig::new(Endpoint::TcpIn(
+            "127.0.0.1".into(),
+            port,
+        ))],
+        table: META.into(),
+        ..Config::default()
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let router = {
+        let stop = stop.clone();
+        thread::spawn(move || router::run(&config, Vec::new(), &stop))
+    };
+    thread::sleep(Duration::from_millis(200));
+    let clients: Vec<TcpStream> = (0..MAX_LINKS)
+        .map(|_| TcpStream::connect(("127.0.0.1", port)).expect("connect"))
+        .collect();
+    thread::sleep(Duration::from_millis(300));
+    let mut refused = TcpStream::connect(("127.0.0.1", port)).expect("connect");
+    refused
+        .set_read_timeout(Some(Duration::from_secs(5)))
+        .expect("timeout");
+    let mut buf = [0u8; 16];
+    let got = refused.read(&mut buf);
+    stop.store(true, Ordering::Relaxed);
+    router.join().expect("router thread").expect("router ran");
+    drop(clients);
+    assert!(
+        matches!(got, Ok(0)) || got.is_err_and(|e| e.kind() != std::io::ErrorKind::WouldBlock),
+        "the refused client was not closed"
+    );
+}

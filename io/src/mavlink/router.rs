@@ -151,6 +151,13 @@ impl State {
     fn admit(&mut self, endpoint: usize, peer: PeerId, name: String, sender: Sender) -> bool {
         let link = self.link_configs.get(endpoint).cloned().unwrap_or_default();
         let Some(slot) = self.router.open_link(link) else {
+            if sender.close() {
+                // A TCP client: closed at once, so it holds no thread or descriptor here; it
+                // may connect again.
+                self.refused += 1;
+                eprintln!("link refused and closed: {name}: all {MAX_LINKS} links in use");
+                return false;
+            }
             if !self.waiting.contains_key(&peer) {
                 self.refused += 1;
                 eprintln!("link refused for now: {name}: all {MAX_LINKS} links in use");
