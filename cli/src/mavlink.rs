@@ -11,6 +11,7 @@ use clap::Subcommand;
 use ferrolink_io::uri::Target;
 
 use crate::schemes::{Extra, EXTENSIONS};
+use ferrolink_io::link::{OutputQueue, Overflow};
 use ferrolink_io::mavlink::config::{self, EndpointConfig, FileConfig};
 use ferrolink_io::mavlink::{router, tlog};
 
@@ -41,6 +42,13 @@ pub enum Command {
         /// Forget a UDP peer quiet for SECS seconds.
         #[arg(long, value_name = "SECS", default_value_t = DEFAULT_PEER_EXPIRY)]
         peer_expiry: f64,
+        /// The most bytes queued for a TCP, serial or pty peer that reads slower than frames
+        /// come for it [default: 65536]; past it, the peer loses frames and no other link waits.
+        #[arg(long, value_name = "BYTES")]
+        queue_bytes: Option<usize>,
+        /// What a full output queue drops [default: oldest].
+        #[arg(long, value_name = "oldest|newest")]
+        queue_drop: Option<QueueDrop>,
         /// Drop frames whose exact bytes came within MS milliseconds (redundant links), on the
         /// endpoints given on the command line.
         #[arg(long, value_name = "MS", default_value_t = 0)]
@@ -178,6 +186,40 @@ fn fleet(uri: &str, _: Duration, _: bool) -> Result<ExitCode, Box<dyn std::error
     Err(crate::schemes::without_zenoh(uri).into())
 }
 
+/// What a full output queue drops.
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum QueueDrop {
+    /// The oldest queued frames, so a peer that catches up gets the newest.
+    Oldest,
+    /// The frame being sent.
+    Newest,
+}
+
+/// The output queue from the flags, over the file's, over the router's default.
+fn output_queue(
+    file: Option<OutputQueue>,
+    bytes: Option<usize>,
+    drop: Option<QueueDrop>,
+) -> Result<OutputQueue, String> {
+    let mut queue = file.unwrap_or(ferrolink_io::link::DAEMON_QUEUE);
+    if let Some(bytes) = bytes {
+        if bytes == 0 {
+            return Err(
+                "--queue-bytes 0: no frame would fit\n  hint: give the bytes a slow peer \
+                        may have waiting, e.g. --queue-bytes 65536 (the default)"
+                    .into(),
+            );
+        }
+        queue.bytes = bytes;
+    }
+    match drop {
+        Some(QueueDrop::Oldest) => queue.overflow = Overflow::DropOldest,
+        Some(QueueDrop::Newest) => queue.overflow = Overflow::DropNewest,
+        None => {}
+    }
+    Ok(queue)
+}
+
 /// The default `--peer-expiry`, in seconds.
 const DEFAULT_PEER_EXPIRY: f64 = 10.0;
 
@@ -194,6 +236,8 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             stats,
             run_for,
             peer_expiry,
+            queue_bytes,
+            queue_drop,
             dedup_ms,
             config,
             endpoints,
@@ -228,6 +272,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                     Some(expiry) if peer_expiry == DEFAULT_PEER_EXPIRY => expiry,
                     _ => seconds(peer_expiry)?,
                 }),
+                queue: Some(output_queue(file.queue, queue_bytes, queue_drop)?),
             };
             let stop = Arc::new(AtomicBool::new(false));
             let flag = stop.clone();

@@ -41,8 +41,29 @@ trait LinkReader: Send {
 
 /// The sending half of a stream.
 trait LinkWriter: Send {
-    /// Writes all of `bytes` or fails.
-    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()>;
+    /// Writes some of `bytes`, waiting up to [`WRITE_TIMEOUT`] for the other side to take them;
+    /// Ok(0) means it took nothing in that time.
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize>;
+
+    /// Writes all of `bytes`, or fails once the other side took nothing for [`WRITE_TIMEOUT`].
+    fn write_all(&mut self, mut bytes: &[u8]) -> io::Result<()> {
+        while !bytes.is_empty() {
+            let n = match self.write(bytes) {
+                Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+                other => other?,
+            };
+            match n {
+                0 => {
+                    return Err(io::Error::new(
+                        io::ErrorKind::TimedOut,
+                        "write timed out, the other side is not reading",
+                    ))
+                }
+                n => bytes = &bytes[n..],
+            }
+        }
+        Ok(())
+    }
 
     /// Ends a connection that can be ended (a TCP client; its reader then sees the end and the
     /// peer goes down); `false` for a device, which stays.
@@ -67,19 +88,19 @@ fn socket_timeout(timeout: Duration) -> Duration {
     timeout.max(Duration::from_micros(1))
 }
 
-/// A write that ran into its timeout reports `TimedOut` (sockets say `WouldBlock`, which would
-/// read as "try again").
-fn write_error(e: io::Error) -> io::Error {
-    if matches!(
-        e.kind(),
-        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
-    ) {
-        io::Error::new(
-            io::ErrorKind::TimedOut,
-            format!("write timed out, the other side is not reading: {e}"),
-        )
-    } else {
-        e
+/// A write that ran into its timeout wrote nothing (sockets say `WouldBlock`, devices
+/// `TimedOut`).
+fn written(result: io::Result<usize>) -> io::Result<usize> {
+    match result {
+        Err(e)
+            if matches!(
+                e.kind(),
+                io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+            ) =>
+        {
+            Ok(0)
+        }
+        other => other,
     }
 }
 

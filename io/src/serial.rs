@@ -11,7 +11,7 @@ use serialport::COMPort as Port;
 use serialport::TTYPort as Port;
 use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits};
 
-use crate::{is_timeout, write_error, Halves, LinkReader, LinkWriter, WRITE_TIMEOUT};
+use crate::{is_timeout, written, Halves, LinkReader, LinkWriter, WRITE_TIMEOUT};
 
 /// Opens a serial device at `baud`, 8N1, no flow control, in exclusive mode (`TIOCEXCL` and
 /// `flock`; `serialport` clears `TIOCEXCL` again when the port is closed).
@@ -88,8 +88,8 @@ struct TtyWriter {
 }
 
 impl LinkWriter for TtyWriter {
-    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.port.write_all(bytes).map_err(write_error)
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+        written(self.port.write(bytes))
     }
 }
 

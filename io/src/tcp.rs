@@ -4,9 +4,7 @@ use std::io::{self, Read, Write};
 use std::net::TcpStream;
 use std::time::Duration;
 
-use crate::{
-    is_timeout, socket_timeout, write_error, Halves, LinkReader, LinkWriter, WRITE_TIMEOUT,
-};
+use crate::{is_timeout, socket_timeout, written, Halves, LinkReader, LinkWriter, WRITE_TIMEOUT};
 
 /// The halves of one connected stream (a client, or one client of a server), set up for small,
 /// latency-sensitive frames (`TCP_NODELAY`), writes giving up after [`WRITE_TIMEOUT`]. Reading
@@ -52,8 +50,8 @@ struct TcpWriter {
 }
 
 impl LinkWriter for TcpWriter {
-    fn write_all(&mut self, bytes: &[u8]) -> io::Result<()> {
-        self.stream.write_all(bytes).map_err(write_error)
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+        written(self.stream.write(bytes))
     }
 
     fn close(&mut self) -> bool {

@@ -7,6 +7,8 @@
 //! tlog = "flight.tlog"            # optional, as --tlog
 //! stats_json = "stats.jsonl"      # optional, as --stats-json
 //! peer_expiry = 10.0              # seconds
+//! queue_bytes = 65536             # a TCP, serial or pty peer's output queue, in bytes
+//! queue_drop = "oldest"           # what a full queue drops: "oldest" or "newest"
 //! dialects = ["ardupilotmega.xml"]
 //!
 //! [[endpoint]]
@@ -40,7 +42,7 @@ use ferrolink_runtime::mavlink::router::{ByteSet, Filter, IdSet, LinkConfig};
 use ferrolink_runtime::mavlink::signing::SecretKey;
 use serde::Deserialize;
 
-use crate::link::Endpoint;
+use crate::link::{Endpoint, OutputQueue, Overflow};
 use crate::uri::is_host;
 
 /// An endpoint and how its links behave.
@@ -75,6 +77,8 @@ pub struct FileConfig {
     pub stats_json: Option<PathBuf>,
     /// How long a quiet UDP peer keeps its link.
     pub peer_expiry: Option<Duration>,
+    /// The output queue of stream peers, when the file sets it.
+    pub queue: Option<OutputQueue>,
     /// Problems that did not stop the file from being read (unknown keys).
     pub warnings: Vec<String>,
 }
@@ -126,6 +130,8 @@ struct TomlFile {
     tlog: Option<PathBuf>,
     stats_json: Option<PathBuf>,
     peer_expiry: Option<f64>,
+    queue_bytes: Option<usize>,
+    queue_drop: Option<QueueDrop>,
     #[serde(default)]
     endpoint: Vec<TomlEndpoint>,
 }
@@ -166,6 +172,39 @@ struct TomlEndpoint {
     allow_src_comp_out: Vec<u8>,
     #[serde(default)]
     block_src_comp_out: Vec<u8>,
+}
+
+/// What a full output queue drops.
+#[derive(Deserialize, Clone, Copy)]
+#[serde(rename_all = "lowercase")]
+enum QueueDrop {
+    Oldest,
+    Newest,
+}
+
+/// The router's output queue as the file sets it (either key alone keeps the other's default).
+fn queue(
+    bytes: Option<usize>,
+    drop: Option<QueueDrop>,
+) -> Result<Option<OutputQueue>, ConfigError> {
+    if bytes.is_none() && drop.is_none() {
+        return Ok(None);
+    }
+    let default = crate::link::DAEMON_QUEUE;
+    let bytes = bytes.unwrap_or(default.bytes);
+    if bytes == 0 {
+        return Err(error(
+            "queue_bytes = 0: no frame would fit\n  hint: give the bytes a slow peer may have \
+             waiting, e.g. 65536 (the default)"
+                .into(),
+        ));
+    }
+    let overflow = match drop {
+        Some(QueueDrop::Oldest) => Overflow::DropOldest,
+        Some(QueueDrop::Newest) => Overflow::DropNewest,
+        None => default.overflow,
+    };
+    Ok(Some(OutputQueue { overflow, bytes }))
 }
 
 /// Group names to the router's group numbers (1, 2, ... in order of appearance).
@@ -255,8 +294,9 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
             max_delay_us: e.max_delay_ms.saturating_mul(1000),
             require_signing: e.signing_key.as_deref().map(|k| key(k, &at)).transpose()?,
             drop_unknown_ids: e.drop_unknown_ids,
-            // Set from the endpoint's kind when the router opens its links.
+            // Set from the endpoint's kind and place when the router opens its links.
             datagrams: false,
+            signing_domain: 0,
         };
         endpoints.push(EndpointConfig { endpoint, link });
     }
@@ -272,6 +312,7 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
         tlog: file.tlog,
         stats_json: file.stats_json,
         peer_expiry,
+        queue: queue(file.queue_bytes, file.queue_drop)?,
         warnings: Vec::new(),
     })
 }

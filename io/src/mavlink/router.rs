@@ -22,7 +22,7 @@ use serde_json::json;
 
 use super::config::EndpointConfig;
 use super::{tlog, unix_us};
-use crate::link::{self, Event, PeerId, Sender};
+use crate::link::{self, Event, OutputQueue, Overflow, PeerId, Sender};
 
 /// What the router daemon does.
 #[derive(Debug, Clone, Default)]
@@ -41,6 +41,10 @@ pub struct Config {
     pub run_for: Option<Duration>,
     /// How long a quiet `udpin` peer keeps its link (default 10 s).
     pub peer_expiry: Option<Duration>,
+    /// The output queue of each TCP, serial and pty peer ([`link::DAEMON_QUEUE`] if not given): a
+    /// peer that does not keep up loses its own frames, counted as its `tx_dropped`, and never
+    /// slows another.
+    pub queue: Option<OutputQueue>,
 }
 
 /// An endpoint the daemon does not open from a [`link`] URI.
@@ -254,6 +258,8 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
     };
     let state = Arc::new(Mutex::new(State {
         router: Box::new(Daemon::new(config.table.clone())),
+        // Every peer of an endpoint shares its replay state (past 255 endpoints, each peer
+        // has its own).
         link_configs: config
             .endpoints
             .iter()
@@ -262,6 +268,11 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
                 ..e.link.clone()
             })
             .chain(attached.iter().map(|a| a.link.clone()))
+            .enumerate()
+            .map(|(i, link)| LinkConfig {
+                signing_domain: u8::try_from(i + 1).unwrap_or(0),
+                ..link
+            })
             .collect(),
         links: HashMap::new(),
         waiting: HashMap::new(),
@@ -270,8 +281,17 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
         tlog_error: None,
         refused: 0,
     }));
+    let queue = config.queue.unwrap_or(link::DAEMON_QUEUE);
+    if queue.overflow == Overflow::Wait {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "a router never waits for a peer: its output queues drop the oldest or the newest \
+             frames",
+        ));
+    }
     let options = link::Options {
         peer_expiry: config.peer_expiry.unwrap_or(link::DEFAULT_PEER_EXPIRY),
+        queue,
     };
     let mut handles = Vec::new();
     for (i, endpoint) in config.endpoints.iter().enumerate() {
@@ -384,6 +404,7 @@ fn write_json(out: &mut impl Write, state: &State) -> io::Result<()> {
             let mut c = counters_json(router.link_counters(l.slot)?);
             c["link"] = l.name.clone().into();
             c["tx_errors"] = l.tx_errors.into();
+            c["tx_dropped"] = l.sender.dropped().into();
             Some(c)
         })
         .collect();
@@ -413,8 +434,8 @@ fn print_table(state: &State) -> io::Result<()> {
     let mut out = io::stdout().lock();
     writeln!(
         out,
-        "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8}",
-        "link", "rx", "tx", "crc", "dropped", "tx err"
+        "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
+        "link", "rx", "tx", "crc", "dropped", "tx err", "tx drop"
     )?;
     for l in sorted_links(links) {
         let Some(c) = router.link_counters(l.slot) else {
@@ -422,13 +443,14 @@ fn print_table(state: &State) -> io::Result<()> {
         };
         writeln!(
             out,
-            "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8}",
+            "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
             l.name,
             c.rx_frames,
             c.tx_frames,
             c.crc_failures,
             c.drops.inbound(),
-            l.tx_errors
+            l.tx_errors,
+            l.sender.dropped()
         )?;
     }
     writeln!(

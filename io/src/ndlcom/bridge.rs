@@ -175,6 +175,11 @@ pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
     }
     let (tx, rx) = mpsc::channel();
     let mut handles = Vec::new();
+    // A client that stops reading loses its own frames; it never holds up the bridge.
+    let options = link::Options {
+        queue: link::DAEMON_QUEUE,
+        ..link::Options::default()
+    };
     for (i, endpoint) in endpoints.iter().enumerate() {
         for &id in &endpoint.routes {
             node.router_mut().seed(id, i);
@@ -183,7 +188,7 @@ pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
             node.router_mut().set_mirror(i, true);
         }
         let uri = endpoint.to_string();
-        let handle = link::open(i, &endpoint.endpoint, link::Options::default(), sink(&tx))
+        let handle = link::open(i, &endpoint.endpoint, options, sink(&tx))
             .map_err(|e| io::Error::new(e.kind(), format!("{uri}: {e}")))?;
         handles.push(handle);
     }

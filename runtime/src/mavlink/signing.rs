@@ -370,6 +370,11 @@ impl<const S: usize> Verifier<S> {
         self.timestamp
     }
 
+    /// The key it checks signatures with.
+    pub fn key(&self) -> &SecretKey {
+        &self.key
+    }
+
     /// The counters.
     pub fn stats(&self) -> &VerifyStats {
         &self.stats

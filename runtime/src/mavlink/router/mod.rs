@@ -28,7 +28,10 @@
 //!   received longer ago than that (a backlog of stale telemetry on a slow link).
 //! - **Signing at the edge.** A link with [`LinkConfig::require_signing`] drops unsigned frames,
 //!   bad signatures and replays. Signed frames are always forwarded untouched; the router never
-//!   signs anything, so traffic from an untrusted link is never made trusted.
+//!   signs anything, so traffic from an untrusted link is never made trusted. Replays are told
+//!   by the spec's key, (link id, system, component) with its last timestamp, kept per
+//!   [`LinkConfig::signing_domain`]: every peer of one endpoint shares it, and it outlives them,
+//!   so a frame replayed from a new port or connection is still a replay.
 //! - **Bounded storage.** Routes age out after [`Router::set_route_ttl_us`] (10 s by default;
 //!   their slots are freed at most every 100 ms while routing, and on [`Router::expire`]). A
 //!   full route or source table evicts its oldest entry, counts it, and keeps working.
@@ -110,7 +113,8 @@ pub struct Routed<'a> {
 struct Link<Rules> {
     open: bool,
     config: LinkConfig<Rules>,
-    verifier: Option<Verifier<SIGNING_STREAMS>>,
+    /// Its entry in [`State::signing`], when it requires signing.
+    signing: Option<u8>,
     counters: LinkCounters,
 }
 
@@ -181,6 +185,11 @@ struct State<
     Rules,
 > {
     links: [Link<Rules>; LINKS],
+    /// Replay states: one per signing domain, kept after its links close. There is always a
+    /// free or unused entry for a link being opened, since fewer than `LINKS` are open then.
+    signing: [Option<Verifier<SIGNING_STREAMS>>; LINKS],
+    /// The domain of each replay state (0: a single link's).
+    signing_domains: [u8; LINKS],
     routes: [Option<Route>; ROUTES],
     sources: [Option<SourceCounters>; SOURCES],
     seen: [Seen; DEDUP],
@@ -218,6 +227,8 @@ impl<
             table,
             state: State {
                 links: core::array::from_fn(|_| Link::default()),
+                signing: core::array::from_fn(|_| None),
+                signing_domains: [0; LINKS],
                 routes: [None; ROUTES],
                 sources: [None; SOURCES],
                 seen: [Seen::default(); DEDUP],
@@ -240,15 +251,20 @@ impl<
     }
 
     /// Opens a link in the first free slot and returns its index, or `None` when all `LINKS` are in
-    /// use. Its counters start at zero.
+    /// use. Its counters start at zero; a link that requires signing joins the replay state of
+    /// its [`LinkConfig::signing_domain`].
     pub fn open_link(&mut self, config: LinkConfig<Rules>) -> Option<usize> {
         let index = self.state.links.iter().position(|l| !l.open)?;
         let parser = self.parsers.get_mut(index)?;
         *parser = Parser::new(self.table.clone()).pass_unknown_ids(!config.drop_unknown_ids);
         *self.parsed.get_mut(index)? = ParserStats::default();
+        let signing = config
+            .require_signing
+            .as_ref()
+            .and_then(|key| self.state.signing_entry(config.signing_domain, key));
         *self.state.links.get_mut(index)? = Link {
             open: true,
-            verifier: config.require_signing.clone().map(Verifier::new),
+            signing,
             config,
             counters: LinkCounters::default(),
         };
@@ -375,6 +391,60 @@ impl<
         Rules: LinkFilter,
     > State<LINKS, ROUTES, SOURCES, DEDUP, Rules>
 {
+    /// The replay state for a new link of `domain` checking `key`: the domain's own (a new one
+    /// if the key changed), else a free entry, else one no open link uses (those of closed
+    /// single links first).
+    fn signing_entry(&mut self, domain: u8, key: &SecretKey) -> Option<u8> {
+        let (signing, domains) = (&self.signing, &self.signing_domains);
+        let used = |i: usize| signing.get(i).is_some_and(Option::is_some);
+        let own = (domain != 0)
+            .then(|| (0..LINKS).find(|&i| used(i) && domains.get(i) == Some(&domain)))
+            .flatten();
+        let links = &self.links;
+        let unused = |i: &usize| {
+            !links
+                .iter()
+                .any(|l| l.open && l.signing == u8::try_from(*i).ok())
+        };
+        let i = own
+            .or_else(|| (0..LINKS).find(|&i| !used(i)))
+            .or_else(|| {
+                (0..LINKS)
+                    .filter(unused)
+                    .find(|&i| domains.get(i) == Some(&0))
+            })
+            .or_else(|| (0..LINKS).find(unused))?;
+        let entry = self.signing.get_mut(i)?;
+        if own != Some(i) || entry.as_ref().map(Verifier::key) != Some(key) {
+            *entry = Some(Verifier::new(key.clone()));
+        }
+        *self.signing_domains.get_mut(i)? = domain;
+        u8::try_from(i).ok()
+    }
+
+    /// The signing checks of link `from`, when it requires signing.
+    fn check_signature(
+        &mut self,
+        from: usize,
+        frame: &ParsedFrame<'_>,
+        rx_us: u64,
+    ) -> Result<(), DropReason> {
+        let Some(i) = self.links.get(from).and_then(|l| l.signing) else {
+            return Ok(());
+        };
+        let Some(Some(verifier)) = self.signing.get_mut(usize::from(i)) else {
+            return Ok(());
+        };
+        let Some(v2) = frame.as_v2() else {
+            return Err(DropReason::Unsigned);
+        };
+        match verifier.verify(v2, timestamp_from_unix_micros(rx_us)) {
+            Ok(()) => Ok(()),
+            Err(VerifyError::Unsigned) => Err(DropReason::Unsigned),
+            Err(_) => Err(DropReason::BadSignature),
+        }
+    }
+
     fn expire(&mut self, now_us: u64) {
         if self.route_ttl_us == 0 {
             return;
@@ -407,14 +477,14 @@ impl<
         if !frame.is_checked() {
             link.counters.unchecked += 1;
         }
-        if let Err(why) = link.check_signature(frame, rx_us) {
-            return self.drop_frame(from, why);
-        }
         let dedup_window = link.config.dedup_window_us;
         let passes_in = link
             .config
             .inbound
             .passes(frame.msg_id(), header.sysid, header.compid);
+        if let Err(why) = self.check_signature(from, frame, rx_us) {
+            return self.drop_frame(from, why);
+        }
         if dedup_window > 0 && self.is_duplicate(bytes, rx_us, dedup_window) {
             return self.drop_frame(from, DropReason::Duplicate);
         }
@@ -635,23 +705,6 @@ impl<
     }
 }
 
-impl<Rules> Link<Rules> {
-    /// The signing checks of a link that requires signing.
-    fn check_signature(&mut self, frame: &ParsedFrame<'_>, rx_us: u64) -> Result<(), DropReason> {
-        let Some(verifier) = &mut self.verifier else {
-            return Ok(());
-        };
-        let Some(v2) = frame.as_v2() else {
-            return Err(DropReason::Unsigned);
-        };
-        match verifier.verify(v2, timestamp_from_unix_micros(rx_us)) {
-            Ok(()) => Ok(()),
-            Err(VerifyError::Unsigned) => Err(DropReason::Unsigned),
-            Err(_) => Err(DropReason::BadSignature),
-        }
-    }
-}
-
 /// How many frames of a source went missing between sequence numbers `last` and `seq`: `None`
 /// for a step back (reordering, or a duplicate), which is no loss. A jump of 128 or more counts
 /// as a step back, since the 8-bit sequence cannot tell the two apart.
@@ -678,7 +731,7 @@ fn insert_or_evict<T: Copy>(slots: &mut [Option<T>], item: T, age: impl Fn(&T) -
 
 /// Whether link `from` checks signatures, so that a frame that passed them is proven.
 fn link_signs<Rules>(links: &[Link<Rules>], from: usize) -> bool {
-    links.get(from).is_some_and(|l| l.verifier.is_some())
+    links.get(from).is_some_and(|l| l.signing.is_some())
 }
 
 /// The target of an addressed message: `(target_system, target_component)`, the component 0

@@ -27,6 +27,11 @@
 //! A UDP endpoint also sends to any address from its bound socket ([`Handle::sender_to`]), for
 //! protocols that fan out to a list of addresses on a shared medium (ModRob's Ethernet-1).
 //!
+//! A stream peer's [`Sender`] writes on the caller's thread by default ([`Overflow::Wait`]).
+//! With [`Options::queue`] set to drop, each stream peer gets a bounded output queue and a
+//! writer thread: a peer that stops reading loses its own frames, counted by
+//! [`Sender::dropped`], and a sender never waits for it.
+//!
 //! Threads, not an async runtime (measured against tokio in `cargo bench -p ferrolink-bench --bench
 //! router`): one blocking reader per socket or client, parked in the kernel
 //! while nothing arrives (idle CPU is a wake-up every 200 ms per reader, to notice shutdown).
@@ -39,6 +44,11 @@ use std::io;
 use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, UdpSocket};
 
 use crate::{is_timeout, LinkReader, LinkWriter};
+
+mod queue;
+
+use queue::Queue;
+pub use queue::{OutputQueue, Overflow, DAEMON_QUEUE, DEFAULT_QUEUE_BYTES};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread;
@@ -172,7 +182,8 @@ type WriteFn = dyn Fn(&[u8]) -> io::Result<()> + Send + Sync;
 #[derive(Clone)]
 enum SenderKind {
     Udp(Arc<UdpSocket>, SocketAddr),
-    Stream(Arc<Mutex<Box<dyn LinkWriter>>>),
+    /// A stream, written by the caller or, with a queue, by the queue's writer thread.
+    Stream(Arc<Mutex<Box<dyn LinkWriter>>>, Option<Arc<Queue>>),
     Fn(Arc<WriteFn>),
 }
 
@@ -180,7 +191,7 @@ impl fmt::Debug for SenderKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             SenderKind::Udp(socket, to) => f.debug_tuple("Udp").field(socket).field(to).finish(),
-            SenderKind::Stream(_) => f.write_str("Stream"),
+            SenderKind::Stream(..) => f.write_str("Stream"),
             SenderKind::Fn(_) => f.write_str("Fn"),
         }
     }
@@ -192,16 +203,27 @@ impl Sender {
         Sender(SenderKind::Fn(Arc::new(write)))
     }
 
-    /// Sends `bytes` as one datagram, or writes them to the stream (a TCP peer that does not
-    /// read for 100 ms loses the write, so one stalled client cannot hold up a router).
+    /// Sends `bytes` as one datagram, or writes them to the stream: on this thread (failing
+    /// when the peer took nothing for 100 ms), or through the peer's output queue, which never
+    /// waits (see [`Overflow`]).
     pub fn send(&self, bytes: &[u8]) -> io::Result<()> {
         match &self.0 {
             SenderKind::Udp(socket, to) => socket.send_to(bytes, to).map(|_| ()),
-            SenderKind::Stream(stream) => stream
+            SenderKind::Stream(_, Some(queue)) => queue.push(bytes),
+            SenderKind::Stream(stream, None) => stream
                 .lock()
                 .unwrap_or_else(PoisonError::into_inner)
                 .write_all(bytes),
             SenderKind::Fn(write) => write(bytes),
+        }
+    }
+
+    /// Frames the peer's output queue dropped because the peer did not keep up (0 without a
+    /// queue).
+    pub fn dropped(&self) -> u64 {
+        match &self.0 {
+            SenderKind::Stream(_, Some(queue)) => queue.dropped(),
+            _ => 0,
         }
     }
 
@@ -210,10 +232,15 @@ impl Sender {
     /// device or a pty, which stay.
     pub fn close(&self) -> bool {
         match &self.0 {
-            SenderKind::Stream(stream) => stream
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner)
-                .close(),
+            SenderKind::Stream(stream, queue) => {
+                if let Some(queue) = queue {
+                    queue.close();
+                }
+                stream
+                    .lock()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .close()
+            }
             SenderKind::Udp(..) | SenderKind::Fn(_) => false,
         }
     }
@@ -224,12 +251,15 @@ impl Sender {
 pub struct Options {
     /// How long a `udpin` peer may be quiet before it is reported down.
     pub peer_expiry: Duration,
+    /// How writes to a stream peer (TCP, serial, pty) wait or queue.
+    pub queue: OutputQueue,
 }
 
 impl Default for Options {
     fn default() -> Self {
         Self {
             peer_expiry: DEFAULT_PEER_EXPIRY,
+            queue: OutputQueue::default(),
         }
     }
 }
@@ -336,7 +366,7 @@ pub fn open(
             let local = listener.local_addr().ok();
             spawn(&uri, {
                 let stop = stop.clone();
-                move || tcp_in(index, &name, &listener, &stop, &events)
+                move || tcp_in(index, &name, &listener, options.queue, &stop, &events)
             })?;
             local
         }
@@ -344,7 +374,7 @@ pub fn open(
             let (host, port) = (host.clone(), *port);
             spawn(&uri, {
                 let stop = stop.clone();
-                move || tcp_out(index, &name, &host, port, &stop, &events)
+                move || tcp_out(index, &name, &host, port, options.queue, &stop, &events)
             })?;
             None
         }
@@ -352,7 +382,7 @@ pub fn open(
             let (path, baud) = (path.clone(), *baud);
             spawn(&uri, {
                 let stop = stop.clone();
-                move || serial(index, &name, &path, baud, &stop, &events)
+                move || serial(index, &name, &path, baud, options.queue, &stop, &events)
             })?;
             None
         }
@@ -360,7 +390,7 @@ pub fn open(
             // Created and reported now, so that the link exists and can be written to when
             // `open` returns.
             let (reader, writer) = crate::serial::open_pty(link).map_err(context)?;
-            let peer = peer_up(index, &name, writer, &events)
+            let peer = peer_up(index, &name, writer, options.queue, &events)?
                 .ok_or_else(|| io::Error::other(format!("{uri}: nobody listens for events")))?;
             spawn(&uri, {
                 let stop = stop.clone();
@@ -491,14 +521,21 @@ fn udp_one_peer(
     }
 }
 
-fn tcp_in(index: usize, name: &str, listener: &TcpListener, stop: &Arc<AtomicBool>, events: &Sink) {
+fn tcp_in(
+    index: usize,
+    name: &str,
+    listener: &TcpListener,
+    queue: OutputQueue,
+    stop: &Arc<AtomicBool>,
+    events: &Sink,
+) {
     while !stop.load(Ordering::Relaxed) {
         match listener.accept() {
             Ok((stream, from)) => {
                 let peer_name = format!("{name} <- {from}");
                 let (events, stop) = (events.clone(), stop.clone());
                 let _ = spawn(name, move || {
-                    stream_peer(index, &peer_name, stream, &stop, &events);
+                    stream_peer(index, &peer_name, stream, queue, &stop, &events);
                 });
             }
             Err(e) if is_timeout(&e) => thread::sleep(Duration::from_millis(20)),
@@ -512,12 +549,13 @@ fn stream_peer(
     index: usize,
     name: &str,
     stream: TcpStream,
+    queue: OutputQueue,
     stop: &AtomicBool,
     events: &Sink,
 ) -> Option<String> {
     let shutdown = stream.try_clone().ok();
     let why = match crate::tcp::stream_halves(stream) {
-        Ok((reader, writer)) => read_peer(index, name, reader, writer, stop, events),
+        Ok((reader, writer)) => read_peer(index, name, reader, writer, queue, stop, events),
         Err(e) => Some(e.to_string()),
     };
     if let Some(s) = shutdown {
@@ -533,33 +571,70 @@ fn read_peer(
     name: &str,
     reader: Box<dyn LinkReader>,
     writer: Box<dyn LinkWriter>,
+    queue: OutputQueue,
     stop: &AtomicBool,
     events: &Sink,
 ) -> Option<String> {
-    let peer = peer_up(index, name, writer, events)?;
+    let peer = match peer_up(index, name, writer, queue, events) {
+        Ok(peer) => peer?,
+        Err(e) => return Some(e.to_string()),
+    };
     read_until_down(peer, reader, stop, events)
 }
 
-/// Reports a new stream peer that writes through `writer`; `None` if nobody listens.
-fn peer_up(index: usize, name: &str, writer: Box<dyn LinkWriter>, events: &Sink) -> Option<PeerId> {
-    let peer = next_peer();
+/// A stream peer: its number, and its output queue when it has one.
+struct StreamPeer {
+    id: PeerId,
+    queue: Option<Arc<Queue>>,
+}
+
+impl Drop for StreamPeer {
+    /// The peer is down or its endpoint stopped: its writer thread ends.
+    fn drop(&mut self) {
+        if let Some(queue) = &self.queue {
+            queue.close();
+        }
+    }
+}
+
+/// Reports a new stream peer that writes through `writer` (with an output queue and its
+/// writer thread, unless the policy is to wait); `None` if nobody listens.
+fn peer_up(
+    index: usize,
+    name: &str,
+    writer: Box<dyn LinkWriter>,
+    policy: OutputQueue,
+    events: &Sink,
+) -> io::Result<Option<StreamPeer>> {
+    let writer = Arc::new(Mutex::new(writer));
+    let queue = match policy.overflow {
+        Overflow::Wait => None,
+        Overflow::DropNewest | Overflow::DropOldest => {
+            Some(Queue::start(name, policy, writer.clone())?)
+        }
+    };
+    let peer = StreamPeer {
+        id: next_peer(),
+        queue: queue.clone(),
+    };
     let up = Event::Up {
         endpoint: index,
-        peer,
+        peer: peer.id,
         name: name.to_owned(),
-        sender: Sender(SenderKind::Stream(Arc::new(Mutex::new(writer)))),
+        sender: Sender(SenderKind::Stream(writer, queue)),
     };
-    events(up).then_some(peer)
+    Ok(events(up).then_some(peer))
 }
 
 /// Reports what `peer` sends until its stream fails (then reports it down and returns why) or
 /// the endpoint stops.
 fn read_until_down(
-    peer: PeerId,
+    peer: StreamPeer,
     mut reader: Box<dyn LinkReader>,
     stop: &AtomicBool,
     events: &Sink,
 ) -> Option<String> {
+    let id = peer.id;
     let mut buf = vec![0u8; 16 * 1024];
     let why = loop {
         if stop.load(Ordering::Relaxed) {
@@ -569,7 +644,7 @@ fn read_until_down(
             Ok(0) => {}
             Ok(n) => {
                 let rx = Event::Rx {
-                    peer,
+                    peer: id,
                     bytes: &buf[..n],
                     at: Instant::now(),
                 };
@@ -579,14 +654,22 @@ fn read_until_down(
         }
     };
     events(Event::Down {
-        peer,
+        peer: id,
         why: why.clone(),
     })
     .then_some(())?;
     Some(why)
 }
 
-fn tcp_out(index: usize, name: &str, host: &str, port: u16, stop: &AtomicBool, events: &Sink) {
+fn tcp_out(
+    index: usize,
+    name: &str,
+    host: &str,
+    port: u16,
+    queue: OutputQueue,
+    stop: &AtomicBool,
+    events: &Sink,
+) {
     let first = Duration::from_millis(50);
     let mut backoff = first;
     while !stop.load(Ordering::Relaxed) {
@@ -595,7 +678,7 @@ fn tcp_out(index: usize, name: &str, host: &str, port: u16, stop: &AtomicBool, e
         match connected {
             Ok(stream) => {
                 backoff = first;
-                if stream_peer(index, name, stream, stop, events).is_none() {
+                if stream_peer(index, name, stream, queue, stop, events).is_none() {
                     return;
                 }
             }
@@ -607,13 +690,21 @@ fn tcp_out(index: usize, name: &str, host: &str, port: u16, stop: &AtomicBool, e
     }
 }
 
-fn serial(index: usize, name: &str, path: &str, baud: u32, stop: &AtomicBool, events: &Sink) {
+fn serial(
+    index: usize,
+    name: &str,
+    path: &str,
+    baud: u32,
+    queue: OutputQueue,
+    stop: &AtomicBool,
+    events: &Sink,
+) {
     let mut reported = false;
     while !stop.load(Ordering::Relaxed) {
         match crate::serial::open_serial(path, baud) {
             Ok((reader, writer)) => {
                 reported = false;
-                if read_peer(index, name, reader, writer, stop, events).is_none() {
+                if read_peer(index, name, reader, writer, queue, stop, events).is_none() {
                     return;
                 }
             }
