@@ -139,3 +139,71 @@ fn a_refused_tcp_client_is_closed() {
         "the refused client was not closed"
     );
 }
+
+/// Junk holds no slot: a hundred senders of random datagrams on a `udpin` port, more than there
+/// are slots, and a vehicle and a ground station arriving after them still talk at once.
+#[test]
+fn junk_senders_hold_no_slot() {
+    let port = UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .expect("a free port")
+        .port();
+    let config = Config {
+        endpoints: vec![EndpointConfig::new(Endpoint::UdpIn(
+            "127.0.0.1".into(),
+            port,
+        ))],
+        table: META.into(),
+        ..Config::default()
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let router = {
+        let stop = stop.clone();
+        thread::spawn(move || router::run(&config, Vec::new(), &stop))
+    };
+    thread::sleep(Duration::from_millis(200));
+    let to = ("127.0.0.1", port);
+    let junk: Vec<UdpSocket> = (0..100).map(|_| peer()).collect();
+    let mut noise = 0x2545_f491_u32;
+    for round in 0..3 {
+        for j in &junk {
+            let datagram: Vec<u8> = (0..40 + round * 7)
+                .map(|_| {
+                    noise ^= noise << 13;
+                    noise ^= noise >> 17;
+                    noise ^= noise << 5;
+                    // Start markers among the noise, so some of it looks like frames.
+                    if noise % 16 == 0 {
+                        0xfd
+                    } else {
+                        noise as u8
+                    }
+                })
+                .collect();
+            j.send_to(&datagram, to).expect("send");
+        }
+    }
+    thread::sleep(Duration::from_millis(100));
+    let (vehicle, gcs) = (peer(), peer());
+    gcs.send_to(&heartbeat(255), to).expect("send");
+    thread::sleep(Duration::from_millis(50));
+    vehicle.send_to(&heartbeat(1), to).expect("send");
+    let deadline = Instant::now() + Duration::from_secs(2);
+    let mut heard = false;
+    let mut buf = [0u8; 512];
+    while !heard && Instant::now() < deadline {
+        if let Ok(n) = gcs.recv(&mut buf) {
+            heard = buf[..n] == heartbeat(1)[..];
+        }
+    }
+    stop.store(true, Ordering::Relaxed);
+    router.join().expect("router thread").expect("router ran");
+    assert!(
+        heard,
+        "the ground station never heard the vehicle past the junk"
+    );
+    for j in &junk {
+        j.set_nonblocking(true).expect("non-blocking");
+        assert!(j.recv(&mut buf).is_err(), "a junk sender was sent frames");
+    }
+}

@@ -158,7 +158,9 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
         failures.push("replayed from a new UDP port");
     }
     let probe = signed(30, 250);
-    attacker.send_to(&probe, ("127.0.0.1", p_gcs)).expect("send");
+    attacker
+        .send_to(&probe, ("127.0.0.1", p_gcs))
+        .expect("send");
     assert!(vehicle.gets(&probe), "a fresh frame from the new port");
 
     // TCP: a client's signed frame, then the same bytes over a new connection.
@@ -176,7 +178,10 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
     }
     let probe = signed(40, 249);
     again.write_all(&probe).expect("write");
-    assert!(vehicle.gets(&probe), "a fresh frame over the new connection");
+    assert!(
+        vehicle.gets(&probe),
+        "a fresh frame over the new connection"
+    );
 
     // Serial: a radio's signed frame; the radio is unplugged and plugged in again, and the
     // same bytes arrive through the reopened device.
@@ -194,9 +199,15 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
     }
     let probe = signed(60, 248);
     second_writer.send(&probe).expect("write");
-    assert!(vehicle.gets(&probe), "a fresh frame through the reopened device");
+    assert!(
+        vehicle.gets(&probe),
+        "a fresh frame through the reopened device"
+    );
 
     stop.store(true, Ordering::Relaxed);
     router.join().expect("router thread").expect("router ran");
-    assert!(failures.is_empty(), "replays reached the vehicle: {failures:?}");
+    assert!(
+        failures.is_empty(),
+        "replays reached the vehicle: {failures:?}"
+    );
 }

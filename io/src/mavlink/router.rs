@@ -2,8 +2,14 @@
 //!
 //! Every peer of every endpoint (each UDP sender on a `udpin` port, each client of a `tcpin`
 //! server, the one peer of `udpout`, `tcpout` and `serial`) is its own link, with its own parser
-//! and counters. Each endpoint has reader threads that route what they read, under one lock.
-//! `ferrolink mavlink router` is a thin wrapper around [`run`].
+//! and counters. Each endpoint has reader threads that route what they read, under one lock;
+//! what goes to a TCP, serial or pty peer waits in that peer's bounded output queue, written by
+//! a thread of its own. `ferrolink mavlink router` is a thin wrapper around [`run`].
+//!
+//! Admission: a `udpin` sender gets a link slot with its first datagram that holds a frame whose
+//! checksum checks (junk never holds a slot); every other peer (a TCP client, a device, the
+//! address of a `udpout`) gets one when it appears. A peer refused for want of a slot is
+//! offered one again at its next read; a refused TCP client is closed at once.
 //!
 //! Endpoints that are not opened from a [`link`] URI are [`Attached`]: they report to a
 //! [`link::Sink`] like the link layer does (the Zenoh endpoint of `ferrolink-zenoh` is one).
@@ -16,8 +22,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
+use ferrolink_runtime::mavlink::parser::Parser;
 use ferrolink_runtime::mavlink::router::{Daemon, LinkConfig, LinkCounters, MAX_LINKS};
-use ferrolink_runtime::mavlink::MessageMeta;
+use ferrolink_runtime::mavlink::{v2, MessageMeta};
 use serde_json::json;
 
 use super::config::EndpointConfig;
@@ -77,9 +84,15 @@ struct State {
     /// The link configuration of every endpoint, attached ones last.
     link_configs: Vec<LinkConfig>,
     links: HashMap<PeerId, Link>,
-    /// Peers refused a slot when they came up, with their endpoint: offered one again at their
-    /// next read, once one is free.
+    /// Peers without a slot, with their endpoint: `udpin` senders until a datagram proves them,
+    /// and peers refused for want of a slot. Offered one at their next (proven) read.
     waiting: HashMap<PeerId, (usize, String, Sender)>,
+    /// Per endpoint: whether its peers wait for a proven datagram (`udpin`).
+    probation: Vec<bool>,
+    /// Parses datagrams of peers on probation.
+    probe: Parser<{ v2::MAX_FRAME_LEN }, Arc<[MessageMeta]>>,
+    /// Datagrams from peers on probation that held no checked frame.
+    junk_datagrams: u64,
     by_slot: Vec<Option<PeerId>>,
     tlog: Option<tlog::Writer<BufWriter<File>>>,
     tlog_error: Option<io::Error>,
@@ -95,10 +108,20 @@ impl State {
                 name,
                 sender,
             } => {
-                self.admit(endpoint, peer, name, sender);
+                if self.probation.get(endpoint).copied().unwrap_or(false) {
+                    self.waiting.insert(peer, (endpoint, name, sender));
+                } else {
+                    self.admit(endpoint, peer, name, sender);
+                }
             }
             Event::Rx { peer, bytes, at } => {
                 if let Some((endpoint, name, sender)) = self.waiting.remove(&peer) {
+                    if self.probation.get(endpoint).copied().unwrap_or(false) && !self.proves(bytes)
+                    {
+                        self.junk_datagrams += 1;
+                        self.waiting.insert(peer, (endpoint, name, sender));
+                        return;
+                    }
                     self.admit(endpoint, peer, name, sender);
                 }
                 let Some(from) = self.links.get(&peer).map(|l| l.slot) else {
@@ -150,6 +173,16 @@ impl State {
 }
 
 impl State {
+    /// Whether a datagram holds a frame whose checksum checks.
+    fn proves(&mut self, datagram: &[u8]) -> bool {
+        self.probe.reset();
+        let mut checked = false;
+        self.probe
+            .feed_all(datagram, |frame| checked |= frame.is_checked());
+        self.probe.reset();
+        checked
+    }
+
     /// Gives a peer a link slot; without a free one, it waits for one (see `waiting`). Returns
     /// whether it got one.
     fn admit(&mut self, endpoint: usize, peer: PeerId, name: String, sender: Sender) -> bool {
@@ -276,6 +309,13 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
             .collect(),
         links: HashMap::new(),
         waiting: HashMap::new(),
+        probation: config
+            .endpoints
+            .iter()
+            .map(|e| matches!(e.endpoint, link::Endpoint::UdpIn(..)))
+            .collect(),
+        probe: Parser::new(config.table.clone()),
+        junk_datagrams: 0,
         by_slot: vec![None; MAX_LINKS],
         tlog,
         tlog_error: None,
@@ -424,6 +464,7 @@ fn write_json(out: &mut impl Write, state: &State) -> io::Result<()> {
         "routes_evicted": r.routes_evicted,
         "sources_evicted": r.sources_evicted,
         "links_refused": refused,
+        "junk_datagrams": state.junk_datagrams,
     });
     writeln!(out, "{line}")?;
     out.flush()
