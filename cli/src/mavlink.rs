@@ -3,7 +3,7 @@
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -242,22 +242,24 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             config,
             endpoints,
         } => {
+            let config_path = config.clone();
             let file = match &config {
                 Some(path) => read_config(path)?,
                 None => FileConfig::default(),
             };
-            let mut all = file.endpoints;
+            let mut given = Vec::new();
             let mut zenoh = Vec::new();
             for uri in &endpoints {
                 match ferrolink_io::mavlink::ENDPOINTS.parse_with(uri, EXTENSIONS)? {
                     Target::Link(endpoint, _) => {
                         let mut endpoint = EndpointConfig::new(endpoint);
                         endpoint.link.dedup_window_us = dedup_ms.saturating_mul(1000);
-                        all.push(endpoint);
+                        given.push(endpoint);
                     }
                     Target::Other(uri) => zenoh.push(uri),
                 }
             }
+            let all = [file.endpoints.clone(), given.clone()].concat();
             let dialects = Dialects::load(&[file.dialects, dialect].concat())?;
             let table = dialects.table.clone();
             let attached = zenoh_endpoints(zenoh, dialects)?;
@@ -274,10 +276,8 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 }),
                 queue: Some(output_queue(file.queue, queue_bytes, queue_drop)?),
             };
-            let stop = Arc::new(AtomicBool::new(false));
-            let flag = stop.clone();
-            ctrlc::set_handler(move || flag.store(true, Ordering::Relaxed))?;
-            router::run(&config, attached, &stop)?;
+            let (stop, reload) = signals(config_path, given)?;
+            router::run_reloading(&config, attached, &stop, reload)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Fleet { timeout, json, uri } => fleet(&uri, seconds(timeout)?, json),
@@ -294,6 +294,53 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             file,
         } => crate::mavlink_stats::run(&dialect, plot.as_deref(), &file),
     }
+}
+
+/// The router's signals, as daemons take them: SIGINT and SIGTERM stop it; SIGHUP reloads the
+/// endpoints of the configuration file (those given as arguments stay), or is logged and
+/// otherwise ignored without one. A SIGHUP ignored when the router started (under `nohup`)
+/// stays ignored.
+fn signals(
+    config: Option<PathBuf>,
+    given: Vec<EndpointConfig>,
+) -> io::Result<(Arc<AtomicBool>, Option<router::Reload>)> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [SIGINT, SIGTERM] {
+        signal_hook::flag::register(signal, stop.clone())?;
+    }
+    if ignored(SIGHUP) {
+        return Ok((stop, None));
+    }
+    let requested = Arc::new(AtomicBool::new(false));
+    signal_hook::flag::register(SIGHUP, requested.clone())?;
+    let endpoints: Box<dyn Fn() -> Result<Vec<EndpointConfig>, String> + Send> = match config {
+        Some(path) => Box::new(move || {
+            eprintln!("SIGHUP: reloading {}", path.display());
+            Ok([read_config(&path)?.endpoints, given.clone()].concat())
+        }),
+        None => Box::new(|| Err("SIGHUP, but there is no configuration file to reload".into())),
+    };
+    Ok((
+        stop,
+        Some(router::Reload {
+            requested,
+            endpoints,
+        }),
+    ))
+}
+
+/// Whether `signal` was ignored when the process started (`SigIgn` in /proc/self/status, on
+/// Linux; elsewhere, never).
+fn ignored(signal: i32) -> bool {
+    let Ok(status) = std::fs::read_to_string("/proc/self/status") else {
+        return false;
+    };
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("SigIgn:"))
+        .and_then(|mask| u64::from_str_radix(mask.trim(), 16).ok())
+        .is_some_and(|mask| mask >> (signal - 1) & 1 == 1)
 }
 
 /// Reads a router configuration file, printing its warnings.

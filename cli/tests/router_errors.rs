@@ -54,3 +54,11 @@ fn a_configuration_without_endpoints() {
       hint: give them as arguments (udpin://0.0.0.0:14550 serial:///dev/ttyACM0:57600 ...) or as [[endpoint]] tables in the --config file
     ");
 }
+
+#[test]
+fn an_output_queue_of_zero_bytes() {
+    insta::assert_snapshot!(refused(&["--queue-bytes", "0", "udpin://127.0.0.1:0"]), @r"
+    --queue-bytes 0: no frame would fit
+      hint: give the bytes a slow peer may have waiting, e.g. --queue-bytes 65536 (the default)
+    ");
+}

@@ -72,6 +72,7 @@ impl std::fmt::Debug for Attached {
 }
 
 struct Link {
+    endpoint: usize,
     slot: usize,
     name: String,
     sender: Sender,
@@ -81,14 +82,12 @@ struct Link {
 /// What the endpoint threads share: they route each read on their own thread, under this lock.
 struct State {
     router: Box<Daemon<Arc<[MessageMeta]>>>,
-    /// The link configuration of every endpoint, attached ones last.
-    link_configs: Vec<LinkConfig>,
+    /// Every endpoint ever opened, by number (`None` once a reload removed it).
+    endpoints: Vec<Option<EndpointState>>,
     links: HashMap<PeerId, Link>,
     /// Peers without a slot, with their endpoint: `udpin` senders until a datagram proves them,
     /// and peers refused for want of a slot. Offered one at their next (proven) read.
     waiting: HashMap<PeerId, (usize, String, Sender)>,
-    /// Per endpoint: whether its peers wait for a proven datagram (`udpin`).
-    probation: Vec<bool>,
     /// Parses datagrams of peers on probation.
     probe: Parser<{ v2::MAX_FRAME_LEN }, Arc<[MessageMeta]>>,
     /// Datagrams from peers on probation that held no checked frame.
@@ -108,7 +107,7 @@ impl State {
                 name,
                 sender,
             } => {
-                if self.probation.get(endpoint).copied().unwrap_or(false) {
+                if self.on_probation(endpoint) {
                     self.waiting.insert(peer, (endpoint, name, sender));
                 } else {
                     self.admit(endpoint, peer, name, sender);
@@ -116,8 +115,7 @@ impl State {
             }
             Event::Rx { peer, bytes, at } => {
                 if let Some((endpoint, name, sender)) = self.waiting.remove(&peer) {
-                    if self.probation.get(endpoint).copied().unwrap_or(false) && !self.proves(bytes)
-                    {
+                    if self.on_probation(endpoint) && !self.proves(bytes) {
                         self.junk_datagrams += 1;
                         self.waiting.insert(peer, (endpoint, name, sender));
                         return;
@@ -173,6 +171,43 @@ impl State {
 }
 
 impl State {
+    /// Adds an endpoint and returns its number. Every peer of it shares its replay state (past
+    /// 255 endpoints, each peer has its own).
+    fn add_endpoint(&mut self, link: LinkConfig, probation: bool) -> usize {
+        let index = self.endpoints.len();
+        let link = LinkConfig {
+            signing_domain: u8::try_from(index + 1).unwrap_or(0),
+            ..link
+        };
+        self.endpoints.push(Some(EndpointState { link, probation }));
+        index
+    }
+
+    /// Removes endpoint `index` (a reload dropped it): its links close, its waiting peers are
+    /// forgotten, and peers its threads report from now on are turned away.
+    fn remove_endpoint(&mut self, index: usize) {
+        if let Some(e) = self.endpoints.get_mut(index) {
+            *e = None;
+        }
+        self.waiting.retain(|_, (endpoint, ..)| *endpoint != index);
+        let gone: Vec<PeerId> = self
+            .links
+            .iter()
+            .filter(|(_, l)| l.endpoint == index)
+            .map(|(p, _)| *p)
+            .collect();
+        for peer in gone {
+            self.handle(Event::Down {
+                peer,
+                why: "the endpoint was removed from the configuration".into(),
+            });
+        }
+    }
+
+    fn on_probation(&self, endpoint: usize) -> bool {
+        matches!(self.endpoints.get(endpoint), Some(Some(e)) if e.probation)
+    }
+
     /// Whether a datagram holds a frame whose checksum checks.
     fn proves(&mut self, datagram: &[u8]) -> bool {
         self.probe.reset();
@@ -186,8 +221,12 @@ impl State {
     /// Gives a peer a link slot; without a free one, it waits for one (see `waiting`). Returns
     /// whether it got one.
     fn admit(&mut self, endpoint: usize, peer: PeerId, name: String, sender: Sender) -> bool {
-        let link = self.link_configs.get(endpoint).cloned().unwrap_or_default();
-        let Some(slot) = self.router.open_link(link) else {
+        let Some(Some(config)) = self.endpoints.get(endpoint) else {
+            // A peer of an endpoint a reload just removed.
+            sender.close();
+            return false;
+        };
+        let Some(slot) = self.router.open_link(config.link.clone()) else {
             if sender.close() {
                 // A TCP client: closed at once, so it holds no thread or descriptor here; it
                 // may connect again.
@@ -207,6 +246,7 @@ impl State {
         self.links.insert(
             peer,
             Link {
+                endpoint,
                 slot,
                 name,
                 sender,
@@ -243,6 +283,14 @@ impl State {
     }
 }
 
+/// What the router keeps of an endpoint.
+struct EndpointState {
+    /// The configuration of each of its links.
+    link: LinkConfig,
+    /// Whether its peers wait for a proven datagram (`udpin`).
+    probation: bool,
+}
+
 fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
     state.lock().unwrap_or_else(PoisonError::into_inner)
 }
@@ -261,17 +309,114 @@ fn create(option: &str, path: &std::path::Path) -> io::Result<File> {
     })
 }
 
+/// A reload of the endpoints while the router runs (on SIGHUP, say).
+pub struct Reload {
+    /// Set to ask for a reload; the router clears it.
+    pub requested: Arc<AtomicBool>,
+    /// Reads the endpoints anew (from the configuration file). On an error the router keeps
+    /// what it runs, and says why.
+    pub endpoints: Box<dyn Fn() -> Result<Vec<EndpointConfig>, String> + Send>,
+}
+
+impl std::fmt::Debug for Reload {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Reload").finish_non_exhaustive()
+    }
+}
+
+/// An endpoint the router opened from a [`link`] URI, with its number.
+struct Opened {
+    config: EndpointConfig,
+    index: usize,
+    _handle: link::Handle,
+}
+
+/// Opens `endpoint` as a new endpoint of the router.
+fn open_endpoint(
+    state: &Arc<Mutex<State>>,
+    endpoint: &EndpointConfig,
+    options: link::Options,
+) -> io::Result<Opened> {
+    let link = LinkConfig {
+        datagrams: endpoint.endpoint.is_datagrams(),
+        ..endpoint.link.clone()
+    };
+    let probation = matches!(endpoint.endpoint, link::Endpoint::UdpIn(..));
+    let index = lock(state).add_endpoint(link, probation);
+    let shared = state.clone();
+    let sink: link::Sink = Arc::new(move |event| {
+        lock(&shared).handle(event);
+        true
+    });
+    match link::open(index, &endpoint.endpoint, options, sink) {
+        Ok(handle) => Ok(Opened {
+            config: endpoint.clone(),
+            index,
+            _handle: handle,
+        }),
+        Err(e) => {
+            lock(state).remove_endpoint(index);
+            Err(e)
+        }
+    }
+}
+
+/// Applies a reloaded list of endpoints: those configured exactly as before keep running with
+/// their peers; the others close, and new ones open (one that cannot open is reported and
+/// left out).
+fn reload(
+    state: &Arc<Mutex<State>>,
+    opened: &mut Vec<Opened>,
+    endpoints: &[EndpointConfig],
+    options: link::Options,
+) {
+    let mut keep = vec![false; opened.len()];
+    let mut new = Vec::new();
+    for e in endpoints {
+        match (0..opened.len()).find(|&i| !keep[i] && opened[i].config == *e) {
+            Some(i) => keep[i] = true,
+            None => new.push(e),
+        }
+    }
+    let mut kept = Vec::new();
+    for (o, keep) in opened.drain(..).zip(keep) {
+        if keep {
+            kept.push(o);
+        } else {
+            eprintln!("reload: closing {}", o.config.endpoint);
+            lock(state).remove_endpoint(o.index);
+        }
+    }
+    *opened = kept;
+    for e in new {
+        match open_endpoint(state, e, options) {
+            Ok(o) => {
+                eprintln!("reload: opened {}", e.endpoint);
+                opened.push(o);
+            }
+            Err(err) => eprintln!("reload: cannot open {}: {err}", e.endpoint),
+        }
+    }
+}
+
 /// Runs the router on the configured endpoints and the `attached` ones (numbered after them)
 /// until `run_for` elapses or `stop` is set. Prints `ready` on stdout once every endpoint is
 /// bound and listening.
 pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> io::Result<()> {
+    run_reloading(config, attached, stop, None)
+}
+
+/// [`run`], reloading the endpoints whenever `reload` is requested. Nothing else of the
+/// configuration changes on a reload: the dialects, the logs, the peer expiry and the queues
+/// stay as they were at the start.
+pub fn run_reloading(
+    config: &Config,
+    attached: Vec<Attached>,
+    stop: &Arc<AtomicBool>,
+    reload_with: Option<Reload>,
+) -> io::Result<()> {
     if config.endpoints.is_empty() && attached.is_empty() {
-        return Err(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            "no endpoints to route between\n  hint: give them as arguments \
-             (udpin://0.0.0.0:14550 serial:///dev/ttyACM0:57600 ...) or as [[endpoint]] tables \
-             in the --config file",
-        ));
+        return Err(no_endpoints());
     }
     if config.peer_expiry == Some(Duration::ZERO) {
         return Err(io::Error::new(
@@ -281,46 +426,6 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
              default)",
         ));
     }
-    let tlog = match &config.tlog {
-        Some(path) => Some(tlog::Writer::new(BufWriter::new(create("--tlog", path)?))),
-        None => None,
-    };
-    let mut stats_json = match &config.stats_json {
-        Some(path) => Some(BufWriter::new(create("--stats-json", path)?)),
-        None => None,
-    };
-    let state = Arc::new(Mutex::new(State {
-        router: Box::new(Daemon::new(config.table.clone())),
-        // Every peer of an endpoint shares its replay state (past 255 endpoints, each peer
-        // has its own).
-        link_configs: config
-            .endpoints
-            .iter()
-            .map(|e| LinkConfig {
-                datagrams: e.endpoint.is_datagrams(),
-                ..e.link.clone()
-            })
-            .chain(attached.iter().map(|a| a.link.clone()))
-            .enumerate()
-            .map(|(i, link)| LinkConfig {
-                signing_domain: u8::try_from(i + 1).unwrap_or(0),
-                ..link
-            })
-            .collect(),
-        links: HashMap::new(),
-        waiting: HashMap::new(),
-        probation: config
-            .endpoints
-            .iter()
-            .map(|e| matches!(e.endpoint, link::Endpoint::UdpIn(..)))
-            .collect(),
-        probe: Parser::new(config.table.clone()),
-        junk_datagrams: 0,
-        by_slot: vec![None; MAX_LINKS],
-        tlog,
-        tlog_error: None,
-        refused: 0,
-    }));
     let queue = config.queue.unwrap_or(link::DAEMON_QUEUE);
     if queue.overflow == Overflow::Wait {
         return Err(io::Error::new(
@@ -333,18 +438,34 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
         peer_expiry: config.peer_expiry.unwrap_or(link::DEFAULT_PEER_EXPIRY),
         queue,
     };
-    let mut handles = Vec::new();
-    for (i, endpoint) in config.endpoints.iter().enumerate() {
-        let shared = state.clone();
-        let sink: link::Sink = Arc::new(move |event| {
-            lock(&shared).handle(event);
-            true
-        });
-        handles.push(link::open(i, &endpoint.endpoint, options, sink)?);
+    let tlog = match &config.tlog {
+        Some(path) => Some(tlog::Writer::new(BufWriter::new(create("--tlog", path)?))),
+        None => None,
+    };
+    let mut stats_json = match &config.stats_json {
+        Some(path) => Some(BufWriter::new(create("--stats-json", path)?)),
+        None => None,
+    };
+    let state = Arc::new(Mutex::new(State {
+        router: Box::new(Daemon::new(config.table.clone())),
+        endpoints: Vec::new(),
+        links: HashMap::new(),
+        waiting: HashMap::new(),
+        probe: Parser::new(config.table.clone()),
+        junk_datagrams: 0,
+        by_slot: vec![None; MAX_LINKS],
+        tlog,
+        tlog_error: None,
+        refused: 0,
+    }));
+    let mut opened = Vec::new();
+    for endpoint in &config.endpoints {
+        opened.push(open_endpoint(&state, endpoint, options)?);
     }
     let mut guards = Vec::new();
     let count = config.endpoints.len() + attached.len();
-    for (i, endpoint) in (config.endpoints.len()..).zip(attached) {
+    for endpoint in attached {
+        let i = lock(&state).add_endpoint(endpoint.link.clone(), false);
         let shared = state.clone();
         let sink: link::Sink = Arc::new(move |event| {
             lock(&shared).handle(event);
@@ -372,6 +493,17 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
         let now = Instant::now();
         if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| now >= d) {
             break;
+        }
+        if let Some(r) = &reload_with {
+            if r.requested.swap(false, Ordering::Relaxed) {
+                match (r.endpoints)() {
+                    Ok(endpoints) if endpoints.is_empty() && guards.is_empty() => {
+                        eprintln!("reload: kept the running endpoints: {}", no_endpoints());
+                    }
+                    Ok(endpoints) => reload(&state, &mut opened, &endpoints, options),
+                    Err(e) => eprintln!("reload: kept the running endpoints: {e}"),
+                }
+            }
         }
         let mut wake = now + Duration::from_millis(100);
         for t in [Some(next_json), next_table, deadline]
@@ -401,7 +533,7 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
     }
     // Stop the readers first (they notice within 200 ms), so nothing is routed after the last
     // record is flushed.
-    drop(handles);
+    drop(opened);
     drop(guards);
     std::thread::sleep(Duration::from_millis(250));
     let mut s = lock(&state);
@@ -413,6 +545,15 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
         log.flush()?;
     }
     Ok(())
+}
+
+fn no_endpoints() -> io::Error {
+    io::Error::new(
+        io::ErrorKind::InvalidInput,
+        "no endpoints to route between\n  hint: give them as arguments \
+         (udpin://0.0.0.0:14550 serial:///dev/ttyACM0:57600 ...) or as [[endpoint]] tables \
+         in the --config file",
+    )
 }
 
 fn counters_json(c: &LinkCounters) -> serde_json::Value {

@@ -1,0 +1,187 @@
+//! `ferrolink mavlink router` takes signals as daemons do: SIGHUP reloads the endpoints of the
+//! configuration file and keeps the router running; without a file it is logged and ignored;
+//! under `nohup` (SIGHUP ignored from the start) it stays ignored; SIGTERM stops the router with
+//! status 0.
+//!
+//! Before, SIGHUP ended the router even under `nohup`, so a router started from an SSH session
+//! died with the session.
+
+use std::io::{BufRead, BufReader, Read};
+use std::net::UdpSocket;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use ferrolink_runtime::mavlink::{v2, Header};
+
+fn heartbeat(sysid: u8) -> Vec<u8> {
+    let mut out = [0u8; v2::MAX_FRAME_LEN];
+    let n = v2::encode_raw(Header::new(0, sysid, 1), 0, 50, &[0; 9], &mut out).expect("fits");
+    out[..n].to_vec()
+}
+
+fn free_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .expect("a free port")
+        .port()
+}
+
+/// Starts the router through `sh` (`prelude` may set up signals, as `nohup` does) and waits
+/// for its `ready` line.
+fn start(prelude: &str, args: &[String]) -> Child {
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg(format!("{prelude} exec \"$0\" mavlink router \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_ferrolink"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the router starts");
+    let mut line = String::new();
+    BufReader::new(child.stdout.as_mut().expect("stdout"))
+        .read_line(&mut line)
+        .expect("read");
+    assert!(line.starts_with("ready"), "{line}");
+    child
+}
+
+fn signal(child: &Child, name: &str) {
+    let ok = Command::new("kill")
+        .args([format!("-{name}"), child.id().to_string()])
+        .status()
+        .expect("kill runs")
+        .success();
+    assert!(ok, "kill -{name}");
+}
+
+/// Stops the router with SIGTERM and returns its stderr; it must exit with status 0.
+fn stop(mut child: Child) -> String {
+    signal(&child, "TERM");
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            break status;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the router did not stop on SIGTERM"
+        );
+        thread::sleep(Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .expect("stderr")
+        .read_to_string(&mut err)
+        .expect("read");
+    assert_eq!(status.code(), Some(0), "{err}");
+    err
+}
+
+fn alive(child: &mut Child) -> bool {
+    child.try_wait().expect("wait").is_none()
+}
+
+/// Whether a peer sending to `to_port` hears a heartbeat sent into `from_port`.
+fn routes(from_port: u16, to_port: u16) -> bool {
+    let listener = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    listener
+        .set_read_timeout(Some(Duration::from_millis(100)))
+        .expect("timeout");
+    let talker = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    let mut buf = [0u8; 512];
+    for _ in 0..20 {
+        let _ = listener.send_to(&heartbeat(255), ("127.0.0.1", to_port));
+        let _ = talker.send_to(&heartbeat(1), ("127.0.0.1", from_port));
+        if let Ok(n) = listener.recv(&mut buf) {
+            if buf[..n] == heartbeat(1)[..] {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+fn write_config(path: &Path, ports: &[u16]) {
+    let text: String = ports
+        .iter()
+        .map(|p| format!("[[endpoint]]\nuri = \"udpin://127.0.0.1:{p}\"\n\n"))
+        .collect();
+    std::fs::write(path, text).expect("config written");
+}
+
+#[test]
+fn sighup_reloads_the_configuration_file() {
+    let dir = tempfile::tempdir().expect("scratch");
+    let config = dir.path().join("router.toml");
+    let (a, b, c) = (free_port(), free_port(), free_port());
+    write_config(&config, &[a, b]);
+    let mut router = start("", &["--config".into(), config.display().to_string()]);
+    assert!(routes(a, b), "A to B before the reload");
+    assert!(!routes(a, c), "C is not configured yet");
+
+    // B goes, C comes.
+    write_config(&config, &[a, c]);
+    signal(&router, "HUP");
+    thread::sleep(Duration::from_millis(500));
+    assert!(alive(&mut router), "SIGHUP ended the router");
+    assert!(routes(a, c), "A to C after the reload");
+    assert!(!routes(a, b), "B is still open after the reload");
+
+    // A broken file is reported, and what runs keeps running.
+    std::fs::write(&config, "[[endpoint]]\nuri = 7\n").expect("written");
+    signal(&router, "HUP");
+    thread::sleep(Duration::from_millis(300));
+    assert!(alive(&mut router), "a broken file ended the router");
+    assert!(routes(a, c), "A to C after a failed reload");
+
+    let err = stop(router);
+    assert!(err.contains("reload: opened udpin://127.0.0.1:"), "{err}");
+    assert!(err.contains("reload: closing udpin://127.0.0.1:"), "{err}");
+    assert!(err.contains("reload: kept the running endpoints"), "{err}");
+}
+
+#[test]
+fn sighup_without_a_file_is_ignored() {
+    let (a, b) = (free_port(), free_port());
+    let mut router = start(
+        "",
+        &[
+            format!("udpin://127.0.0.1:{a}"),
+            format!("udpin://127.0.0.1:{b}"),
+        ],
+    );
+    signal(&router, "HUP");
+    thread::sleep(Duration::from_millis(300));
+    assert!(alive(&mut router), "SIGHUP ended the router");
+    assert!(routes(a, b), "routing after SIGHUP");
+    let err = stop(router);
+    assert!(err.contains("no configuration file to reload"), "{err}");
+}
+
+#[test]
+fn an_ignored_sighup_stays_ignored() {
+    let dir = tempfile::tempdir().expect("scratch");
+    let config = dir.path().join("router.toml");
+    let (a, b, c) = (free_port(), free_port(), free_port());
+    write_config(&config, &[a, b]);
+    // What `nohup` does before it runs a program.
+    let mut router = start(
+        "trap '' HUP;",
+        &["--config".into(), config.display().to_string()],
+    );
+    write_config(&config, &[a, c]);
+    signal(&router, "HUP");
+    thread::sleep(Duration::from_millis(300));
+    assert!(alive(&mut router), "SIGHUP ended the router under nohup");
+    assert!(
+        routes(a, b),
+        "the endpoints changed although SIGHUP is ignored"
+    );
+    let err = stop(router);
+    assert!(!err.contains("SIGHUP"), "{err}");
+}
