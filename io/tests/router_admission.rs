@@ -173,7 +173,7 @@ fn junk_senders_hold_no_slot() {
                     noise ^= noise >> 17;
                     noise ^= noise << 5;
                     // Start markers among the noise, so some of it looks like frames.
-                    if noise % 16 == 0 {
+                    if noise.is_multiple_of(16) {
                         0xfd
                     } else {
                         noise as u8
