@@ -51,6 +51,31 @@ signing_key = "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f"
 }
 
 #[test]
+fn toml_output_queues() {
+    use ferrolink_io::link::{OutputQueue, Overflow, DAEMON_QUEUE};
+    let queue = |text: &str| from_toml(text, Path::new(".")).map(|c| c.queue);
+    assert_eq!(queue(""), Ok(None), "the router's default applies");
+    assert_eq!(
+        queue("queue_bytes = 1000\nqueue_drop = \"newest\"\n"),
+        Ok(Some(OutputQueue {
+            overflow: Overflow::DropNewest,
+            bytes: 1000
+        }))
+    );
+    assert_eq!(
+        queue("queue_drop = \"oldest\"\n"),
+        Ok(Some(DAEMON_QUEUE)),
+        "one key alone keeps the other's default"
+    );
+    let err = |text: &str| queue(text).unwrap_err().to_string();
+    insta::assert_snapshot!(err("queue_bytes = 0\n"), @r"
+    queue_bytes = 0: no frame would fit
+      hint: give the bytes a slow peer may have waiting, e.g. 65536 (the default)
+    ");
+    insta::assert_snapshot!(err("queue_drop = \"middle\"\n"), @"1:14: unknown variant `middle`, expected `oldest` or `newest`");
+}
+
+#[test]
 fn toml_errors_say_where() {
     let err = |text: &str| from_toml(text, Path::new(".")).unwrap_err().to_string();
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nbogus = 1\n"), @"3:1: unknown field `bogus`, expected one of `uri`, `group`, `dedup_ms`, `max_delay_ms`, `signing_key`, `drop_unknown_ids`, `allow_msg_in`, `block_msg_in`, `allow_msg_out`, `block_msg_out`, `allow_src_sys_in`, `block_src_sys_in`, `allow_src_sys_out`, `block_src_sys_out`, `allow_src_comp_in`, `block_src_comp_in`, `allow_src_comp_out`, `block_src_comp_out`");
