@@ -45,6 +45,7 @@ use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, UdpSocket};
 
 use crate::{is_timeout, LinkReader, LinkWriter};
 
+mod batch;
 mod queue;
 
 use queue::Queue;
@@ -208,7 +209,12 @@ impl Sender {
     /// waits (see [`Overflow`]).
     pub fn send(&self, bytes: &[u8]) -> io::Result<()> {
         match &self.0 {
-            SenderKind::Udp(socket, to) => socket.send_to(bytes, to).map(|_| ()),
+            SenderKind::Udp(socket, to) => {
+                if !batch::defer(socket, *to, bytes) {
+                    socket.send_to(bytes, to)?;
+                }
+                Ok(())
+            }
             SenderKind::Stream(_, Some(queue)) => queue.push(bytes),
             SenderKind::Stream(stream, None) => stream
                 .lock()
@@ -272,6 +278,18 @@ pub struct Handle {
     udp: Option<Arc<UdpSocket>>,
 }
 
+/// Where a datagram wakes a UDP reader blocked on a socket bound to `local`.
+fn wake_address(local: SocketAddr) -> SocketAddr {
+    let mut to = local;
+    if to.ip().is_unspecified() {
+        to.set_ip(match to {
+            SocketAddr::V4(_) => std::net::Ipv4Addr::LOCALHOST.into(),
+            SocketAddr::V6(_) => std::net::Ipv6Addr::LOCALHOST.into(),
+        });
+    }
+    to
+}
+
 impl Handle {
     /// The bound address of a UDP or `tcpin` endpoint (useful with port 0).
     pub fn local_addr(&self) -> Option<SocketAddr> {
@@ -287,8 +305,20 @@ impl Handle {
 }
 
 impl Drop for Handle {
+    /// Stops the endpoint's threads. A UDP reader waits for datagrams without a timeout (an
+    /// idle router wakes for nothing): an empty datagram to its socket wakes it.
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
+        if let Some(local) = self.udp.as_ref().and_then(|s| s.local_addr().ok()) {
+            let to = wake_address(local);
+            let any: SocketAddr = match to {
+                SocketAddr::V4(_) => (std::net::Ipv4Addr::UNSPECIFIED, 0).into(),
+                SocketAddr::V6(_) => (std::net::Ipv6Addr::UNSPECIFIED, 0).into(),
+            };
+            if let Ok(waker) = UdpSocket::bind(any) {
+                let _ = waker.send_to(&[], to);
+            }
+        }
     }
 }
 
@@ -427,16 +457,22 @@ fn udp_in(
     stop: &AtomicBool,
     events: &Sink,
 ) {
-    let _ = socket.set_read_timeout(Some(POLL));
     let mut peers: HashMap<SocketAddr, (PeerId, Instant)> = HashMap::new();
-    let mut swept = Instant::now();
-    let mut buf = vec![0u8; 65_536];
+    // When the quietest peer would expire: the only reason to wake without a datagram.
+    let mut sweep_at: Option<Instant> = None;
+    let mut inbox = batch::Inbox::new();
     while !stop.load(Ordering::Relaxed) {
-        let received = socket.recv_from(&mut buf);
+        let wait = sweep_at.map(|t| {
+            t.saturating_duration_since(Instant::now())
+                .max(Duration::from_millis(1))
+        });
+        let _ = socket.set_read_timeout(wait);
+        let received = inbox.receive(socket);
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
         let now = Instant::now();
-        // Peers quiet for too long are gone (looked for at most every POLL).
-        if now.duration_since(swept) >= POLL {
-            swept = now;
+        if sweep_at.is_some_and(|t| now >= t) {
             let mut gone = Vec::new();
             peers.retain(|addr, (peer, last)| {
                 let keep = now.duration_since(*last) <= expiry;
@@ -445,6 +481,7 @@ fn udp_in(
                 }
                 keep
             });
+            sweep_at = peers.values().map(|(_, last)| *last + expiry).min();
             for (peer, addr) in gone {
                 let why = format!("{addr} quiet for {} s", expiry.as_secs_f64());
                 if !events(Event::Down { peer, why }) {
@@ -452,40 +489,49 @@ fn udp_in(
                 }
             }
         }
-        let (n, from) = match received {
-            Ok(got) => got,
+        match received {
+            Ok(_) => {}
             Err(e) if is_timeout(&e) || is_icmp_noise(&e) => continue,
             Err(_) => {
                 thread::sleep(POLL);
                 continue;
             }
-        };
-        let peer = match peers.get_mut(&from) {
-            Some((peer, last)) => {
-                *last = now;
-                *peer
-            }
-            None => {
-                let peer = next_peer();
-                peers.insert(from, (peer, now));
-                let up = Event::Up {
-                    endpoint: index,
-                    peer,
-                    name: format!("{name} <- {from}"),
-                    sender: Sender(SenderKind::Udp(Arc::clone(socket), from)),
+        }
+        let listening = batch::batch(|| {
+            for (bytes, from) in inbox.datagrams() {
+                let Some(from) = from else { continue };
+                let peer = match peers.get_mut(&from) {
+                    Some((peer, last)) => {
+                        *last = now;
+                        *peer
+                    }
+                    None => {
+                        let peer = next_peer();
+                        peers.insert(from, (peer, now));
+                        sweep_at = Some(sweep_at.map_or(now + expiry, |t| t.min(now + expiry)));
+                        let up = Event::Up {
+                            endpoint: index,
+                            peer,
+                            name: format!("{name} <- {from}"),
+                            sender: Sender(SenderKind::Udp(Arc::clone(socket), from)),
+                        };
+                        if !events(up) {
+                            return false;
+                        }
+                        peer
+                    }
                 };
-                if !events(up) {
-                    return;
+                if !events(Event::Rx {
+                    peer,
+                    bytes,
+                    at: now,
+                }) {
+                    return false;
                 }
-                peer
             }
-        };
-        let rx = Event::Rx {
-            peer,
-            bytes: &buf[..n],
-            at: now,
-        };
-        if !events(rx) {
+            true
+        });
+        if !listening {
             return;
         }
     }
@@ -500,23 +546,30 @@ fn udp_one_peer(
     stop: &AtomicBool,
     events: &Sink,
 ) {
-    let _ = socket.set_read_timeout(Some(POLL));
-    let mut buf = vec![0u8; 65_536];
+    let _ = socket.set_read_timeout(None);
+    let mut inbox = batch::Inbox::new();
     while !stop.load(Ordering::Relaxed) {
-        match socket.recv_from(&mut buf) {
-            Ok((n, from)) if only_from.is_none_or(|to| to == from) => {
-                let rx = Event::Rx {
-                    peer,
-                    bytes: &buf[..n],
-                    at: Instant::now(),
-                };
-                if !events(rx) {
-                    return;
-                }
-            }
+        let received = inbox.receive(socket);
+        if stop.load(Ordering::Relaxed) {
+            return;
+        }
+        match received {
             Ok(_) => {}
-            Err(e) if is_timeout(&e) || is_icmp_noise(&e) => {}
-            Err(_) => thread::sleep(POLL),
+            Err(e) if is_timeout(&e) || is_icmp_noise(&e) => continue,
+            Err(_) => {
+                thread::sleep(POLL);
+                continue;
+            }
+        }
+        let at = Instant::now();
+        let listening = batch::batch(|| {
+            inbox
+                .datagrams()
+                .filter(|(_, from)| only_from.is_none_or(|to| Some(to) == *from))
+                .all(|(bytes, _)| events(Event::Rx { peer, bytes, at }))
+        });
+        if !listening {
+            return;
         }
     }
 }
@@ -648,7 +701,8 @@ fn read_until_down(
                     bytes: &buf[..n],
                     at: Instant::now(),
                 };
-                events(rx).then_some(())?;
+                // Datagrams sent while handling these bytes go out together.
+                batch::batch(|| events(rx)).then_some(())?;
             }
             Err(e) => break e.to_string(),
         }

@@ -505,11 +505,11 @@ pub fn run_reloading(
                 }
             }
         }
-        let mut wake = now + Duration::from_millis(100);
-        for t in [Some(next_json), next_table, deadline]
-            .into_iter()
-            .flatten()
-        {
+        // Looks at `stop` and `reload` twice a second; an idle router wakes for nothing else
+        // (the statistics, when asked for, once a second).
+        let mut wake = now + Duration::from_millis(500);
+        let json_at = stats_json.is_some().then_some(next_json);
+        for t in [json_at, next_table, deadline].into_iter().flatten() {
             wake = wake.min(t);
         }
         std::thread::sleep(wake.saturating_duration_since(now));
