@@ -192,6 +192,10 @@ struct Row {
     p99: u64,
     max_rate: f64,
     idle_pct: f64,
+    /// Latency p99 at 1,000 msg/s.
+    p99_1k: u64,
+    /// Share delivered to B and C at 50,000 msg/s.
+    delivered_50k: f64,
 }
 
 fn measure(router: &Router, ports: &[u16]) -> Row {
@@ -232,16 +236,39 @@ fn measure_with(name: &'static str, ports: &[u16], cpu: impl Fn() -> Duration) -
         p99: percentile(&lb, 0.99),
         max_rate: 0.0,
         idle_pct,
+        p99_1k: 0,
+        delivered_50k: 0.0,
     };
 
-    // The most it forwards to one peer.
+    // 1,000 msg/s: the latency of a frame that finds nothing queued.
+    send(&source, 1, 1_000, Duration::from_secs(3));
+    thread::sleep(Duration::from_millis(300));
+    let mut l1 = b.take();
+    l1.sort_unstable();
+    let _ = c.take();
+    let p99_1k = percentile(&l1, 0.99);
+
+    // 50,000 msg/s: what arrives.
+    let sent = send(&source, 1, 50_000, Duration::from_secs(3));
+    thread::sleep(Duration::from_millis(500));
+    let delivered_50k = (b.take().len() + c.take().len()) as f64 / (2 * sent) as f64;
+
+    // The most it forwards to one peer: more offered than any router here forwards.
     let window = Duration::from_secs(3);
-    send(&source, 1, 100_000, window);
+    send(&source, 1, MAX_OFFERED, window);
     thread::sleep(Duration::from_millis(500));
     let max_rate = b.take().len() as f64 / window.as_secs_f64();
     let _ = c.take();
-    Row { max_rate, ..row }
+    Row {
+        max_rate,
+        p99_1k,
+        delivered_50k,
+        ..row
+    }
 }
+
+/// The rate offered to find the most a router forwards.
+const MAX_OFFERED: u64 = 400_000;
 
 /// The floor: latency p50 and p99 of one loopback hop with no router, PINGs at 10,000 msg/s for
 /// 5 s straight from the sender to a receiving peer. A router adds a second hop.
@@ -304,9 +331,11 @@ fn two_routers(zenoh: bool, base: u16) -> Option<Row> {
         p99: percentile(&l, 0.99),
         max_rate: 0.0,
         idle_pct: 0.0,
+        p99_1k: 0,
+        delivered_50k: 0.0,
     };
     let window = Duration::from_secs(3);
-    send(&source, 1, 100_000, window);
+    send(&source, 1, MAX_OFFERED, window);
     thread::sleep(Duration::from_millis(500));
     let max_rate = sink.take().len() as f64 / window.as_secs_f64();
     Some(Row { max_rate, ..row })
@@ -567,20 +596,22 @@ fn main() {
         rows.push(row);
     }
     println!(
-        "\n| router | delivered at 10k msg/s | six peers, 10k msg/s in all | CPU per 10,000 msgs | latency p50 | p99 | most forwarded to one peer | idle CPU |"
+        "\n| router | delivered at 10k msg/s | six peers, 10k msg/s in all | CPU per 10,000 msgs | latency p50 | p99 | p99 at 1k msg/s | delivered at 50k msg/s | most forwarded to one peer | idle CPU |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let six = r
             .six_peers
             .map_or_else(|| "n/a".to_owned(), |d| format!("{:.2} %", 100.0 * d));
         println!(
-            "| {} | {:.2} % | {six} | {:.1} ms | {} µs | {} µs | {:.0} msg/s | {:.2} % |",
+            "| {} | {:.2} % | {six} | {:.1} ms | {} µs | {} µs | {} µs | {:.2} % | {:.0} msg/s | {:.3} % |",
             r.name,
             100.0 * r.delivered,
             r.cpu_per_10k_ms,
             r.p50,
             r.p99,
+            r.p99_1k,
+            100.0 * r.delivered_50k,
             r.max_rate,
             r.idle_pct
         );
@@ -606,15 +637,16 @@ fn main() {
     if let Some(ours) = rows.iter().find(|r| r.name == "ferrolink") {
         for other in rows.iter().filter(|r| r.name != "ferrolink") {
             println!(
-                "ferrolink / {}: CPU per message {:.2}x, most forwarded {:.2}x, p99 {:.2}x",
+                "ferrolink / {}: CPU per message {:.2}x, most forwarded {:.2}x, p99 {:.2}x, idle CPU {:.2}x",
                 other.name,
                 ours.cpu_per_10k_ms / other.cpu_per_10k_ms,
                 ours.max_rate / other.max_rate.max(1.0),
-                ours.p99 as f64 / other.p99.max(1) as f64
+                ours.p99 as f64 / other.p99.max(1) as f64,
+                ours.idle_pct / other.idle_pct.max(1e-6)
             );
         }
     }
-    println!("\nthe I/O model, in-process, same load (CPU of the forwarding threads only):");
+    println!("\nthe I/O model, in-process, same load, one datagram a system call (CPU of the forwarding threads only):");
     println!(
         "\n| I/O model | delivered at 10k msg/s | CPU per 10,000 msgs | latency p50 | p99 | most forwarded to one peer | idle CPU |"
     );

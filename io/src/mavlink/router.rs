@@ -505,9 +505,9 @@ pub fn run_reloading(
                 }
             }
         }
-        // Looks at `stop` and `reload` twice a second; an idle router wakes for nothing else
+        // Looks at `stop` and `reload` once a second; an idle router wakes for nothing else
         // (the statistics, when asked for, once a second).
-        let mut wake = now + Duration::from_millis(500);
+        let mut wake = now + Duration::from_secs(1);
         let json_at = stats_json.is_some().then_some(next_json);
         for t in [json_at, next_table, deadline].into_iter().flatten() {
             wake = wake.min(t);
