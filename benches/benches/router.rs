@@ -270,9 +270,9 @@ fn measure_with(name: &'static str, ports: &[u16], cpu: impl Fn() -> Duration) -
 /// The rate offered to find the most a router forwards.
 const MAX_OFFERED: u64 = 400_000;
 
-/// The floor: latency p50 and p99 of one loopback hop with no router, PINGs at 10,000 msg/s for
-/// 5 s straight from the sender to a receiving peer. A router adds a second hop.
-fn direct() -> (u64, u64) {
+/// The floor: latency p50 and p99 of one loopback hop with no router, PINGs at `rate` for 5 s
+/// straight from the sender to a receiving peer. A router adds a second hop.
+fn direct(rate: u64) -> (u64, u64) {
     let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
     let port = source.local_addr().expect("bound").port();
     let sink = Sink::new(port, 201);
@@ -280,7 +280,7 @@ fn direct() -> (u64, u64) {
         .connect(sink.socket.local_addr().expect("bound"))
         .expect("connect");
     thread::sleep(Duration::from_millis(200));
-    send(&source, 1, 10_000, Duration::from_secs(5));
+    send(&source, 1, rate, Duration::from_secs(5));
     thread::sleep(Duration::from_millis(200));
     let mut l = sink.take();
     l.sort_unstable();
@@ -569,8 +569,13 @@ fn main() {
     // `cargo bench -p ferrolink-bench --bench router -- fleet`: the two-router section only.
     let only_fleet = std::env::args().any(|a| a == "fleet");
     println!("three UDP endpoints on loopback; PING broadcasts from A to B and C");
-    let (p50, p99) = direct();
-    println!("one loopback hop without a router, 10k msg/s: latency p50 {p50} µs, p99 {p99} µs");
+    for rate in [10_000, 1_000] {
+        let (p50, p99) = direct(rate);
+        println!(
+            "one loopback hop without a router, {}k msg/s: latency p50 {p50} µs, p99 {p99} µs",
+            rate / 1000
+        );
+    }
     let mut rows = Vec::new();
     type Start = fn(&[u16]) -> Option<Router>;
     let starters: [(u16, Start); 3] = [
