@@ -75,8 +75,45 @@ pub fn zero_extend<const N: usize>(payload: &[u8]) -> [u8; N] {
     }
     let mut out = [0u8; N];
     let n = payload.len().min(N);
-    out[..n].copy_from_slice(&payload[..n]);
+    copy_short(&mut out[..n], &payload[..n]);
     out
+}
+
+/// Copies `src` into `dst` (of the same length) with copies of fixed size, some overlapping:
+/// a payload cut short by MAVLink 2's trailing-zero truncation is at most 255 bytes, where a
+/// call to `memcpy` costs more than the copy.
+#[inline(always)]
+fn copy_short(dst: &mut [u8], src: &[u8]) {
+    /// The first and the last `K` bytes, which together cover `K..=2K` bytes.
+    #[inline(always)]
+    fn ends<const K: usize>(dst: &mut [u8], src: &[u8]) {
+        if let (Some(d), Some(s)) = (dst.first_chunk_mut::<K>(), src.first_chunk::<K>()) {
+            *d = *s;
+        }
+        if let (Some(d), Some(s)) = (dst.last_chunk_mut::<K>(), src.last_chunk::<K>()) {
+            *d = *s;
+        }
+    }
+    let n = src.len().min(dst.len());
+    match n {
+        0 => {}
+        1..=3 => {
+            for (d, s) in dst.iter_mut().zip(src) {
+                *d = *s;
+            }
+        }
+        4..=7 => ends::<4>(dst, src),
+        8..=15 => ends::<8>(dst, src),
+        16..=32 => ends::<16>(dst, src),
+        _ => {
+            for (d, s) in dst.chunks_exact_mut(32).zip(src.chunks_exact(32)) {
+                if let (Some(d), Some(s)) = (d.first_chunk_mut::<32>(), s.first_chunk::<32>()) {
+                    *d = *s;
+                }
+            }
+            ends::<32>(dst, src);
+        }
+    }
 }
 
 /// Reads an enum-typed field stored on the wire as `W`.
@@ -130,6 +167,22 @@ raw_bits!(u8, i8, u16, i16, u32, i32, u64, i64);
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn zero_extend_copies_every_length() {
+        let payload: [u8; 255] = core::array::from_fn(|i| i as u8 ^ 0x5A);
+        for n in 0..=255 {
+            let out: [u8; 255] = zero_extend(&payload[..n]);
+            assert_eq!(out[..n], payload[..n], "length {n}");
+            assert!(out[n..].iter().all(|&b| b == 0), "length {n}");
+            let short: [u8; 20] = zero_extend(&payload[..n]);
+            assert_eq!(
+                short[..n.min(20)],
+                payload[..n.min(20)],
+                "cut at 20, length {n}"
+            );
+        }
+    }
 
     #[test]
     fn primitives_are_little_endian() {
