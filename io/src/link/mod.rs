@@ -33,10 +33,13 @@
 //! [`Sender::dropped`], and a sender never waits for it.
 //!
 //! Threads, not an async runtime (measured against tokio in `cargo bench -p ferrolink-bench --bench
-//! router`): one blocking reader per socket or client, parked in the kernel
-//! while nothing arrives (idle CPU is a wake-up every 200 ms per reader, to notice shutdown).
-//! The sink runs on the reader's thread, so a router can route a datagram the moment it is read,
-//! with no hand-over between threads; writes go straight to the socket.
+//! router`): one blocking reader per socket or client, parked in the kernel while nothing
+//! arrives. A UDP reader waits without a timeout (dropping the [`Handle`] wakes it with an empty
+//! datagram) and takes every datagram that has arrived with one `recvmmsg`; stream readers look
+//! up every 200 ms to notice a shutdown. The sink runs on the reader's thread, so a router can
+//! route a datagram the moment it is read, with no hand-over between threads; the UDP datagrams
+//! it sends while handling one read go out together, one `sendmmsg` per socket, when it
+//! returns.
 
 use std::collections::HashMap;
 use std::fmt;
