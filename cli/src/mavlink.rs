@@ -305,15 +305,33 @@ fn signals(
     given: Vec<EndpointConfig>,
 ) -> io::Result<(Arc<AtomicBool>, Option<router::Reload>)> {
     use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    use std::sync::atomic::Ordering;
     let stop = Arc::new(AtomicBool::new(false));
-    for signal in [SIGINT, SIGTERM] {
-        signal_hook::flag::register(signal, stop.clone())?;
-    }
-    if ignored(SIGHUP) {
-        return Ok((stop, None));
-    }
     let requested = Arc::new(AtomicBool::new(false));
-    signal_hook::flag::register(SIGHUP, requested.clone())?;
+    let hup = !ignored(SIGHUP);
+    let mut taken = vec![SIGINT, SIGTERM];
+    if hup {
+        taken.push(SIGHUP);
+    }
+    // A thread of its own waits for the signals (no wake-ups in between) and wakes the router.
+    let mut signals = signal_hook::iterator::Signals::new(&taken)?;
+    let (wake, woken) = std::sync::mpsc::channel();
+    {
+        let (stop, requested) = (stop.clone(), requested.clone());
+        std::thread::Builder::new()
+            .name("signals".into())
+            .spawn(move || {
+                for signal in signals.forever() {
+                    match signal {
+                        SIGHUP => requested.store(true, Ordering::Relaxed),
+                        _ => stop.store(true, Ordering::Relaxed),
+                    }
+                    if wake.send(()).is_err() {
+                        return;
+                    }
+                }
+            })?;
+    }
     let endpoints: Box<dyn Fn() -> Result<Vec<EndpointConfig>, String> + Send> = match config {
         Some(path) => Box::new(move || {
             eprintln!("SIGHUP: reloading {}", path.display());
@@ -326,6 +344,7 @@ fn signals(
         Some(router::Reload {
             requested,
             endpoints,
+            wake: Some(woken),
         }),
     ))
 }

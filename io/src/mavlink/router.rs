@@ -316,6 +316,9 @@ pub struct Reload {
     /// Reads the endpoints anew (from the configuration file). On an error the router keeps
     /// what it runs, and says why.
     pub endpoints: Box<dyn Fn() -> Result<Vec<EndpointConfig>, String> + Send>,
+    /// Wakes the router to look at `requested` and at its `stop` flag at once (a signal
+    /// thread sends on it); otherwise it looks once a second.
+    pub wake: Option<std::sync::mpsc::Receiver<()>>,
 }
 
 impl std::fmt::Debug for Reload {
@@ -512,7 +515,13 @@ pub fn run_reloading(
         for t in [json_at, next_table, deadline].into_iter().flatten() {
             wake = wake.min(t);
         }
-        std::thread::sleep(wake.saturating_duration_since(now));
+        let wait = wake.saturating_duration_since(now);
+        match reload_with.as_ref().and_then(|r| r.wake.as_ref()) {
+            Some(woken) => {
+                let _ = woken.recv_timeout(wait);
+            }
+            None => std::thread::sleep(wait),
+        }
         let now = Instant::now();
         let mut s = lock(&state);
         if let Some(e) = s.tlog_error.take() {
