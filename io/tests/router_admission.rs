@@ -2,32 +2,18 @@
 //! slot again once one frees, even while it keeps sending (it never goes quiet, so the link
 //! layer never reports it anew).
 
+mod daemon;
+
 use std::net::UdpSocket;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, Instant};
 
+use daemon::{free_tcp_port, free_udp_port, heartbeat};
 use ferrolink_io::link::Endpoint;
-use ferrolink_io::mavlink::config::EndpointConfig;
-use ferrolink_io::mavlink::router::{self, Config};
+use ferrolink_io::mavlink::router::Config;
 use ferrolink_runtime::mavlink::router::MAX_LINKS;
-use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
-
-static META: &[MessageMeta] = &[MessageMeta {
-    id: 0,
-    crc_extra: 50,
-    min_len: 9,
-    max_len: 9,
-    target_system: None,
-    target_component: None,
-}];
-
-fn heartbeat(sysid: u8) -> Vec<u8> {
-    let mut out = [0u8; v2::MAX_FRAME_LEN];
-    let n = v2::encode_raw(Header::new(0, sysid, 1), 0, 50, &[0; 9], &mut out).expect("fits");
-    out[..n].to_vec()
-}
 
 fn peer() -> UdpSocket {
     let s = UdpSocket::bind("127.0.0.1:0").expect("bind");
@@ -38,25 +24,12 @@ fn peer() -> UdpSocket {
 
 #[test]
 fn a_refused_peer_gets_a_slot_once_one_frees() {
-    let port = UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .expect("a free port")
-        .port();
+    let port = free_udp_port();
     let config = Config {
-        endpoints: vec![EndpointConfig::new(Endpoint::UdpIn(
-            "127.0.0.1".into(),
-            port,
-        ))],
-        table: META.into(),
         peer_expiry: Some(Duration::from_millis(800)),
-        ..Config::default()
+        ..daemon::on(Endpoint::UdpIn("127.0.0.1".into(), port))
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    let router = {
-        let stop = stop.clone();
-        thread::spawn(move || router::run(&config, Vec::new(), &stop))
-    };
-    thread::sleep(Duration::from_millis(200));
+    let router = daemon::start(config);
     let to = ("127.0.0.1", port);
 
     // Every slot taken by peers that then go quiet.
@@ -91,8 +64,7 @@ fn a_refused_peer_gets_a_slot_once_one_frees() {
     }
     keep_sending.store(false, Ordering::Relaxed);
     sender.join().expect("sender");
-    stop.store(true, Ordering::Relaxed);
-    router.join().expect("router thread").expect("router ran");
+    router.stop();
     assert!(heard, "the refused peer never got a slot");
 }
 
@@ -103,24 +75,8 @@ fn a_refused_tcp_client_is_closed() {
     use std::io::Read;
     use std::net::TcpStream;
 
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port();
-    let config = Config {
-        endpoints: vec![EndpointConfig::new(Endpoint::TcpIn(
-            "127.0.0.1".into(),
-            port,
-        ))],
-        table: META.into(),
-        ..Config::default()
-    };
-    let stop = Arc::new(AtomicBool::new(false));
-    let router = {
-        let stop = stop.clone();
-        thread::spawn(move || router::run(&config, Vec::new(), &stop))
-    };
-    thread::sleep(Duration::from_millis(200));
+    let port = free_tcp_port();
+    let router = daemon::start(daemon::on(Endpoint::TcpIn("127.0.0.1".into(), port)));
     let clients: Vec<TcpStream> = (0..MAX_LINKS)
         .map(|_| TcpStream::connect(("127.0.0.1", port)).expect("connect"))
         .collect();
@@ -131,8 +87,7 @@ fn a_refused_tcp_client_is_closed() {
         .expect("timeout");
     let mut buf = [0u8; 16];
     let got = refused.read(&mut buf);
-    stop.store(true, Ordering::Relaxed);
-    router.join().expect("router thread").expect("router ran");
+    router.stop();
     drop(clients);
     assert!(
         matches!(got, Ok(0)) || got.is_err_and(|e| e.kind() != std::io::ErrorKind::WouldBlock),
@@ -144,24 +99,8 @@ fn a_refused_tcp_client_is_closed() {
 /// are slots, and a vehicle and a ground station arriving after them still talk at once.
 #[test]
 fn junk_senders_hold_no_slot() {
-    let port = UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .expect("a free port")
-        .port();
-    let config = Config {
-        endpoints: vec![EndpointConfig::new(Endpoint::UdpIn(
-            "127.0.0.1".into(),
-            port,
-        ))],
-        table: META.into(),
-        ..Config::default()
-    };
-    let stop = Arc::new(AtomicBool::new(false));
-    let router = {
-        let stop = stop.clone();
-        thread::spawn(move || router::run(&config, Vec::new(), &stop))
-    };
-    thread::sleep(Duration::from_millis(200));
+    let port = free_udp_port();
+    let router = daemon::start(daemon::on(Endpoint::UdpIn("127.0.0.1".into(), port)));
     let to = ("127.0.0.1", port);
     let junk: Vec<UdpSocket> = (0..100).map(|_| peer()).collect();
     let mut noise = 0x2545_f491_u32;
@@ -196,8 +135,7 @@ fn junk_senders_hold_no_slot() {
             heard = buf[..n] == heartbeat(1)[..];
         }
     }
-    stop.store(true, Ordering::Relaxed);
-    router.join().expect("router thread").expect("router ran");
+    router.stop();
     assert!(
         heard,
         "the ground station never heard the vehicle past the junk"

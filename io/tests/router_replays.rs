@@ -5,28 +5,21 @@
 //! Before, each peer had its own replay state, so every one of these replays reached the
 //! vehicle.
 
+mod daemon;
+
 use std::io::Write;
 use std::net::{TcpStream, UdpSocket};
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
+use daemon::{free_tcp_port, free_udp_port, heartbeat, HEARTBEAT_ONLY as META};
 use ferrolink_io::link::{self, Endpoint, Sender};
 use ferrolink_io::mavlink::config::EndpointConfig;
-use ferrolink_io::mavlink::router::{self, Config};
+use ferrolink_io::mavlink::router::Config;
 use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
-use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
-
-static META: &[MessageMeta] = &[MessageMeta {
-    id: 0,
-    crc_extra: 50,
-    min_len: 9,
-    max_len: 9,
-    target_system: None,
-    target_component: None,
-}];
+use ferrolink_runtime::mavlink::{v2, Header};
 
 const KEY: [u8; 32] = [7; 32];
 
@@ -48,19 +41,6 @@ fn signed(link_id: u8, sysid: u8) -> Vec<u8> {
         )
         .expect("fits");
     out[..n].to_vec()
-}
-
-fn unsigned(sysid: u8) -> Vec<u8> {
-    let mut out = [0u8; v2::MAX_FRAME_LEN];
-    let n = v2::encode_raw(Header::new(0, sysid, 1), 0, 50, &[1; 9], &mut out).expect("fits");
-    out[..n].to_vec()
-}
-
-fn free_udp() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .expect("a free port")
-        .port()
 }
 
 /// The vehicle, on an endpoint without signing: says which frames reach it.
@@ -108,11 +88,7 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
     let dir = tempfile::tempdir().expect("scratch");
     let tty = dir.path().join("ttyRADIO");
     let (first_device, first_writer) = device(&tty);
-    let (p_vehicle, p_gcs) = (free_udp(), free_udp());
-    let p_tcp = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port();
+    let (p_vehicle, p_gcs, p_tcp) = (free_udp_port(), free_udp_port(), free_tcp_port());
     let signing = |endpoint| {
         let mut e = EndpointConfig::new(endpoint);
         e.link.require_signing = Some(SecretKey::new(KEY));
@@ -128,18 +104,13 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
         table: META.into(),
         ..Config::default()
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    let router = {
-        let stop = stop.clone();
-        thread::spawn(move || router::run(&config, Vec::new(), &stop))
-    };
-    thread::sleep(Duration::from_millis(300));
+    let router = daemon::start(config);
     let vehicle = UdpSocket::bind("127.0.0.1:0").expect("bind");
     vehicle
         .set_read_timeout(Some(Duration::from_millis(50)))
         .expect("timeout");
     vehicle
-        .send_to(&unsigned(1), ("127.0.0.1", p_vehicle))
+        .send_to(&heartbeat(1), ("127.0.0.1", p_vehicle))
         .expect("send");
     let vehicle = Vehicle(vehicle);
     thread::sleep(Duration::from_millis(100));
@@ -204,8 +175,7 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
         "a fresh frame through the reopened device"
     );
 
-    stop.store(true, Ordering::Relaxed);
-    router.join().expect("router thread").expect("router ran");
+    router.stop();
     assert!(
         failures.is_empty(),
         "replays reached the vehicle: {failures:?}"

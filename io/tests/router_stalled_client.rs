@@ -6,29 +6,23 @@
 //! Before output queues, each write to such a client blocked for 100 ms under the routing lock:
 //! the UDP ground stations lost 70 % and saw seconds of latency.
 
+mod daemon;
+
 use std::io::BufRead;
 use std::net::{SocketAddr, TcpStream, UdpSocket};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, Instant};
 
+use daemon::{free_tcp_port, free_udp_port, heartbeat, HEARTBEAT};
 use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::EndpointConfig;
-use ferrolink_io::mavlink::router::{self, Config};
+use ferrolink_io::mavlink::router::Config;
 use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
 
 /// HEARTBEAT, and a 255-byte broadcast that carries its send time, so that the stalled
 /// client's socket buffers fill within a second.
 static META: &[MessageMeta] = &[
-    MessageMeta {
-        id: 0,
-        crc_extra: 50,
-        min_len: 9,
-        max_len: 9,
-        target_system: None,
-        target_component: None,
-    },
+    HEARTBEAT,
     MessageMeta {
         id: 1000,
         crc_extra: 7,
@@ -49,13 +43,6 @@ fn frame(id: u32, crc_extra: u8, payload: &[u8], sysid: u8, seq: u8) -> Vec<u8> 
     out[..n].to_vec()
 }
 
-fn free_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .expect("a free port")
-        .port()
-}
-
 /// A client with a small receive window that never reads.
 fn stalled_client(port: u16) -> TcpStream {
     use socket2::{Domain, Socket, Type};
@@ -69,12 +56,12 @@ fn stalled_client(port: u16) -> TcpStream {
 #[test]
 fn a_client_that_never_reads_slows_no_one() {
     let epoch = Instant::now();
-    let (p_in, p_gcs1, p_gcs2, p_tcp) = (free_port(), free_port(), free_port(), {
-        std::net::TcpListener::bind("127.0.0.1:0")
-            .and_then(|l| l.local_addr())
-            .expect("a free port")
-            .port()
-    });
+    let (p_in, p_gcs1, p_gcs2, p_tcp) = (
+        free_udp_port(),
+        free_udp_port(),
+        free_udp_port(),
+        free_tcp_port(),
+    );
     let dir = tempfile::tempdir().expect("scratch");
     let stats = dir.path().join("stats.jsonl");
     let udpin = |port| EndpointConfig::new(Endpoint::UdpIn("127.0.0.1".into(), port));
@@ -89,12 +76,7 @@ fn a_client_that_never_reads_slows_no_one() {
         stats_json: Some(stats.clone()),
         ..Config::default()
     };
-    let stop = Arc::new(AtomicBool::new(false));
-    let router = {
-        let stop = stop.clone();
-        thread::spawn(move || router::run(&config, Vec::new(), &stop))
-    };
-    thread::sleep(Duration::from_millis(300));
+    let router = daemon::start(config);
 
     let stalled = stalled_client(p_tcp);
     // Two ground stations make themselves known, then count and time what arrives.
@@ -103,7 +85,7 @@ fn a_client_that_never_reads_slows_no_one() {
         .map(|(port, sysid)| {
             let socket = UdpSocket::bind("127.0.0.1:0").expect("bind");
             socket
-                .send_to(&frame(0, 50, &[0; 9], sysid, 0), ("127.0.0.1", port))
+                .send_to(&heartbeat(sysid), ("127.0.0.1", port))
                 .expect("send");
             socket
                 .set_read_timeout(Some(Duration::from_millis(500)))
@@ -146,8 +128,7 @@ fn a_client_that_never_reads_slows_no_one() {
         .into_iter()
         .map(|r| r.join().expect("receiver"))
         .collect();
-    stop.store(true, Ordering::Relaxed);
-    router.join().expect("router thread").expect("router ran");
+    router.stop();
     drop(stalled);
 
     let last = std::fs::read(&stats)
