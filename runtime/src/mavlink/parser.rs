@@ -338,19 +338,40 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
     ///
     /// Call `feed` again with `remaining` until it returns [`Feed::Consumed`]. A frame returned
     /// from the internal buffer stays valid until the next call.
-    pub fn feed<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'a, ParsedFrame<'p>> {
+    #[inline]
+    pub fn feed<'p, 'a: 'p>(&'p mut self, input: &'a [u8]) -> Feed<'a, ParsedFrame<'p>> {
+        // The common cases, inlined into the caller's loop. One more byte for a buffered
+        // candidate that stays short of what it needs (a UART fed byte by byte): append it,
+        // nothing to judge yet.
+        if let ([byte], 0) = (input, self.pending) {
+            if self.end - self.start + 1 < self.need && self.push(*byte) {
+                return Feed::Consumed;
+            }
+        }
+        // Nothing buffered, and the input starts with a whole frame this parser accepts
+        // (frames back to back in a read).
+        if input.len() > 1
+            && self.pending == 0
+            && self.start == self.end
+            && input.first().is_some_and(|&b| is_magic(b))
+        {
+            if let Eval::Accept { len, meta } = self.evaluate(input) {
+                self.start = 0;
+                self.end = 0;
+                self.need = 0;
+                let (bytes, remaining) = input.split_at_checked(len).unwrap_or((input, &[]));
+                return self.hand_out(bytes, meta, remaining);
+            }
+        }
+        self.feed_any(input)
+    }
+
+    /// [`Parser::feed`] in every case: a buffered candidate, garbage, a frame cut off.
+    fn feed_any<'p, 'a: 'p>(&'p mut self, mut input: &'a [u8]) -> Feed<'a, ParsedFrame<'p>> {
         if self.pending > 0 {
             self.start += self.pending;
             self.pending = 0;
             self.need = 0;
-        }
-
-        // One more byte for a buffered candidate that stays short of what it needs (a UART fed
-        // byte by byte): append it, nothing to judge yet.
-        if let ([byte], true) = (input, self.end - self.start + 1 < self.need) {
-            if self.push(*byte) {
-                return Feed::Consumed;
-            }
         }
 
         let found = 'found: {
@@ -435,29 +456,50 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
             }
         };
 
-        let (bytes, meta) = match found {
+        match found {
             Found::Buffer(len, meta) => {
+                self.count_frame(meta.is_none());
                 let bytes = self.buf.get(self.start..self.start + len);
-                (bytes.unwrap_or_default(), meta)
+                let meta = meta.and_then(|m| self.resolve(m));
+                Feed::Frame {
+                    frame: ParsedFrame {
+                        frame: any_frame(bytes.unwrap_or_default()),
+                        meta,
+                    },
+                    remaining: input,
+                }
             }
             Found::Input(len, meta) => {
                 let (frame, rest) = input.split_at_checked(len).unwrap_or((input, &[]));
-                input = rest;
-                (frame, meta)
+                self.hand_out(frame, meta, rest)
             }
-        };
-        bump(&mut self.stats.frames, 1);
-        if meta.is_none() {
-            bump(&mut self.stats.unchecked, 1);
         }
-        let frame = match bytes.first() {
-            Some(&v1::MAGIC) => AnyFrame::V1(v1::Frame::new_unchecked(bytes)),
-            _ => AnyFrame::V2(v2::Frame::new_unchecked(bytes)),
-        };
+    }
+
+    /// Counts a frame accepted from the input and hands it out.
+    #[inline(always)]
+    fn hand_out<'p, 'a: 'p>(
+        &'p mut self,
+        bytes: &'a [u8],
+        meta: Option<MetaRef>,
+        remaining: &'a [u8],
+    ) -> Feed<'a, ParsedFrame<'p>> {
+        self.count_frame(meta.is_none());
         let meta = meta.and_then(|m| self.resolve(m));
         Feed::Frame {
-            frame: ParsedFrame { frame, meta },
-            remaining: input,
+            frame: ParsedFrame {
+                frame: any_frame(bytes),
+                meta,
+            },
+            remaining,
+        }
+    }
+
+    #[inline(always)]
+    fn count_frame(&mut self, unchecked: bool) {
+        bump(&mut self.stats.frames, 1);
+        if unchecked {
+            bump(&mut self.stats.unchecked, 1);
         }
     }
 
@@ -471,11 +513,7 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
         let Eval::Accept { len, meta } = self.evaluate(bytes) else {
             return None;
         };
-        let bytes = bytes.get(..len)?;
-        let frame = match bytes.first() {
-            Some(&v1::MAGIC) => AnyFrame::V1(v1::Frame::new_unchecked(bytes)),
-            _ => AnyFrame::V2(v2::Frame::new_unchecked(bytes)),
-        };
+        let frame = any_frame(bytes.get(..len)?);
         let meta = meta.and_then(|m| self.resolve(m));
         Some(ParsedFrame { frame, meta })
     }
@@ -605,6 +643,15 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
             return Eval::NeedMore(total);
         };
         accept_if_crc_matches(frame, body, total, meta)
+    }
+}
+
+/// The view of an accepted frame, by its magic byte.
+#[inline(always)]
+fn any_frame(bytes: &[u8]) -> AnyFrame<&[u8]> {
+    match bytes.first() {
+        Some(&v1::MAGIC) => AnyFrame::V1(v1::Frame::new_unchecked(bytes)),
+        _ => AnyFrame::V2(v2::Frame::new_unchecked(bytes)),
     }
 }
 
