@@ -56,17 +56,23 @@ fn generated_bindings_are_fresh() {
         &inputs("definitions/modrob", "toml"),
         "generated/src/modrob",
     ));
+    // The microservices' messages live in the runtime, which names itself `ferrolink_runtime`.
+    stale.extend(check(
+        &mut Config::new(),
+        &inputs("definitions/runtime", "xml"),
+        "runtime/src/mavlink/service/generated",
+    ));
     if stale.is_empty() {
         return;
     }
     if std::env::var_os("CI").is_none() {
         panic!(
-            "generated/ was stale ({}); it has been regenerated, please commit it",
+            "generated code was stale ({}); it has been regenerated, please commit it",
             stale.join(", ")
         );
     }
     panic!(
-        "generated/ is stale ({}); run:\n  cargo run -p ferrolink-cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde\n  cargo run -p ferrolink-cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet",
+        "generated code is stale ({}); run:\n  cargo run -p ferrolink-cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde\n  cargo run -p ferrolink-cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet\n  cargo run -p ferrolink-cli -- generate definitions/modrob/*.toml --out generated/src/modrob\n  cargo run -p ferrolink-cli -- generate definitions/runtime/*.xml --out runtime/src/mavlink/service/generated",
         stale.join(", ")
     );
 }

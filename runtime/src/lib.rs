@@ -6,6 +6,7 @@
 //! |-----------|----------------|
 //! | `mavlink` | MAVLink v1/v2 frames, the backtracking stream parser, the dialect traits |
 //! | `signing` | MAVLink 2 message signing (SHA-256) and the MAVLink router (implies `mavlink`) |
+//! | `services` | the MAVLink microservices (commands, parameters) as sans-I/O state machines (implies `mavlink`) |
 //! | `ndlcom`  | NDLCom frames, stream parser, packet counters, router and bridge |
 //! | `tosnet`  | TosNet shared-memory block, ring frames and the node engine |
 //! | `modrob`  | ModRob-1 messages on CAN-1, UART.B-1/SPI-1 (encoder, stream parser) and Ethernet-1 packets; module and leader engines |
@@ -22,9 +23,9 @@
 
 #[cfg(any(test, feature = "std"))]
 extern crate std;
-// The test dialect (`mavlink::testing`) names the crate by its absolute path, as generated code
-// does, so that the integration tests can include the same file.
-#[cfg(test)]
+// Generated code names the crate by its absolute path: the microservices' messages
+// (`mavlink::service::messages`) live here, and the test dialect (`mavlink::testing`) is
+// included by the integration tests too.
 extern crate self as ferrolink_runtime;
 
 pub mod crc;

@@ -11,7 +11,8 @@
 //! - [`parser`]: the backtracking stream parser, which recovers every intact frame from a noisy
 //!   byte stream at any chunking;
 //! - [`signing`]: MAVLink 2 signatures and replay protection, and [`router`], which checks
-//!   them at its edges (both with the `signing` feature).
+//!   them at its edges (both with the `signing` feature);
+//! - [`service`]: the microservices (commands, parameters) as state machines (`services`).
 
 mod chars;
 mod enums;
@@ -21,6 +22,8 @@ pub mod layout;
 pub mod parser;
 #[cfg(feature = "signing")]
 pub mod router;
+#[cfg(feature = "services")]
+pub mod service;
 #[cfg(feature = "signing")]
 pub mod signing;
 #[cfg(test)]

@@ -1,0 +1,5 @@
+//! The MAVLink microservices' state machines, each side alone and both sides through a lossy
+//! link.
+
+mod command;
+mod lossy;
