@@ -3,3 +3,4 @@
 
 mod command;
 mod lossy;
+mod param;

@@ -7,11 +7,16 @@
 //! ACK; [`Client::cancel`] sends COMMAND_CANCEL. `MAV_RESULT_COMMAND_LONG_ONLY` and
 //! `_INT_ONLY` make the client send the command again in the other form, once.
 //!
+//! An ACK names only its command id, not the request: a late copy of the ACK for an earlier
+//! command of the same id, to the same target, is taken for the current one's. Every
+//! implementation shares this limit of the protocol.
+//!
 //! [`Server`] hands each new command to the application once, and answers a repeat of one it has
 //! seen with the same ACK (or `IN_PROGRESS` while it runs) without running it again. A repeat
 //! is a COMMAND_LONG with `confirmation` above 0, or the same values again within
-//! [`ServerConfig::repeat_window_us`]; a command whose id still runs for that sender is
-//! answered `IN_PROGRESS` whatever its values.
+//! [`ServerConfig::repeat_window_us`]. Another command of an id that still runs for that sender
+//! is refused with `MAV_RESULT_TEMPORARILY_REJECTED`, since the protocol tells answers apart by
+//! command id only.
 //!
 //! ```
 //! use ferrolink_runtime::mavlink::service::command::{Client, ClientConfig, Command, Event};
@@ -28,7 +33,9 @@
 //! assert_eq!(again.confirmation, 1);
 //! ```
 
-use super::messages::{CommandAck, CommandCancel, CommandInt, CommandLong, MavCmd, MavFrame, MavResult, Message};
+use super::messages::{
+    CommandAck, CommandCancel, CommandInt, CommandLong, MavCmd, MavFrame, MavResult, Message,
+};
 use super::{earliest, round_i32, Address, Retry};
 
 /// The two forms a command is sent in.
@@ -133,7 +140,9 @@ impl Command {
     pub fn from_long(m: &CommandLong) -> Self {
         Self::long(
             m.command,
-            [m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7],
+            [
+                m.param1, m.param2, m.param3, m.param4, m.param5, m.param6, m.param7,
+            ],
         )
     }
 
@@ -322,7 +331,12 @@ impl<const N: usize> Client<N> {
     }
 
     /// Queues `command` for `target`; it goes out at the next [`Client::poll_transmit`].
-    pub fn send(&mut self, _now_us: u64, target: Address, command: Command) -> Result<(), SendError> {
+    pub fn send(
+        &mut self,
+        _now_us: u64,
+        target: Address,
+        command: Command,
+    ) -> Result<(), SendError> {
         if self.find(target, command.command).is_some() {
             return Err(SendError::AlreadyPending);
         }
@@ -368,16 +382,23 @@ impl<const N: usize> Client<N> {
 
     fn find(&self, target: Address, command: MavCmd) -> Option<usize> {
         self.slots.iter().position(|s| {
-            s.as_ref()
-                .is_some_and(|p| p.target == target && p.command.command == command && p.done.is_none())
+            s.as_ref().is_some_and(|p| {
+                p.target == target && p.command.command == command && p.done.is_none()
+            })
         })
     }
 
     /// A message from `from`. Only COMMAND_ACKs from a pending command's target, for its
     /// command and for us (or for everyone), count.
     pub fn handle(&mut self, now_us: u64, from: Address, msg: &Message) {
-        let Message::CommandAck(ack) = msg else { return };
-        if !self.config.own.is_addressed_by(ack.target_system, ack.target_component) {
+        let Message::CommandAck(ack) = msg else {
+            return;
+        };
+        if !self
+            .config
+            .own
+            .is_addressed_by(ack.target_system, ack.target_component)
+        {
             return;
         }
         let Some(i) = self.slots.iter().position(|s| {
@@ -402,7 +423,9 @@ impl<const N: usize> Client<N> {
                 p.progress = Some(ack.progress);
                 p.deadline = Some(now_us.saturating_add(self.config.in_progress_timeout_us));
             }
-            MavResult::CommandLongOnly if p.form == Form::Int && !p.switched => p.switch(Form::Long),
+            MavResult::CommandLongOnly if p.form == Form::Int && !p.switched => {
+                p.switch(Form::Long)
+            }
             MavResult::CommandIntOnly if p.form == Form::Long && !p.switched => p.switch(Form::Int),
             _ => p.done = Some(Some(answer)),
         }
@@ -515,7 +538,8 @@ struct Seen {
 
 impl Seen {
     fn running(&self) -> bool {
-        self.answer.is_none_or(|a| a.result == MavResult::InProgress)
+        self.answer
+            .is_none_or(|a| a.result == MavResult::InProgress)
     }
 }
 
@@ -526,8 +550,9 @@ pub struct ServerConfig {
     pub own: Address,
     /// A command with the same values as one answered within this time (µs) is a repeat, not
     /// a new command: a retry of COMMAND_INT (which has no `confirmation` to tell) or a copy
-    /// the link repeated. 2 s by default, a whole MAVSDK retry cycle. A COMMAND_LONG with
-    /// `confirmation` above 0 is a repeat at any time.
+    /// the link repeated. 2 s by default, a whole MAVSDK retry cycle; make it cover the retry
+    /// span of the clients you expect. A COMMAND_LONG with `confirmation` above 0 is a repeat
+    /// at any time.
     pub repeat_window_us: u64,
 }
 
@@ -565,13 +590,28 @@ impl<const N: usize> Server<N> {
     /// command already seen returns nothing and queues its answer again.
     pub fn handle(&mut self, now_us: u64, from: Address, msg: &Message) -> Option<Request> {
         let (command, confirmation) = match msg {
-            Message::CommandLong(m) if self.config.own.is_addressed_by(m.target_system, m.target_component) => {
+            Message::CommandLong(m)
+                if self
+                    .config
+                    .own
+                    .is_addressed_by(m.target_system, m.target_component) =>
+            {
                 (Command::from_long(m), Some(m.confirmation))
             }
-            Message::CommandInt(m) if self.config.own.is_addressed_by(m.target_system, m.target_component) => {
+            Message::CommandInt(m)
+                if self
+                    .config
+                    .own
+                    .is_addressed_by(m.target_system, m.target_component) =>
+            {
                 (Command::from_int(m), None)
             }
-            Message::CommandCancel(m) if self.config.own.is_addressed_by(m.target_system, m.target_component) => {
+            Message::CommandCancel(m)
+                if self
+                    .config
+                    .own
+                    .is_addressed_by(m.target_system, m.target_component) =>
+            {
                 return self
                     .seen
                     .iter()
@@ -585,27 +625,38 @@ impl<const N: usize> Server<N> {
             _ => return None,
         };
         let window = self.config.repeat_window_us;
-        // Anything while a command of that id runs for the sender; or a retry (confirmation
-        // counted up) or a copy the link repeated (the same values within the window) of one
-        // it answered.
-        let repeat = self.seen.iter_mut().flatten().find(|s| {
-            s.from == from
-                && s.command.command == command.command
-                && (s.running()
-                    || (s.command.same(&command)
-                        && (confirmation.is_some_and(|c| c > 0)
-                            || now_us.saturating_sub(s.last_us) <= window)))
-        });
-        if let Some(s) = repeat {
-            s.last_us = now_us;
-            s.ack_due = true;
-            if s.answer.is_none() {
-                s.answer = Some(Ack {
+        // While a command of that id runs for the sender, the same values again are a retry
+        // and anything else is refused for now: an answer to another command of that id would
+        // be taken for this one's.
+        if let Some(s) = self
+            .seen
+            .iter_mut()
+            .flatten()
+            .find(|s| s.from == from && s.command.command == command.command && s.running())
+        {
+            if s.command.same(&command) {
+                s.last_us = now_us;
+                s.ack_due = true;
+                s.answer.get_or_insert(Ack {
                     result: MavResult::InProgress,
                     progress: u8::MAX,
                     result_param2: 0,
                 });
+            } else {
+                self.busy = Some((from, command.command));
             }
+            return None;
+        }
+        // A retry (confirmation counted up) or a copy the link repeated (the same values within
+        // the window) of a command it answered: the same answer again.
+        if let Some(s) = self.seen.iter_mut().flatten().find(|s| {
+            s.from == from
+                && s.command.same(&command)
+                && (confirmation.is_some_and(|c| c > 0)
+                    || now_us.saturating_sub(s.last_us) <= window)
+        }) {
+            s.last_us = now_us;
+            s.ack_due = true;
             return None;
         }
         let entry = Seen {
@@ -657,7 +708,11 @@ impl<const N: usize> Server<N> {
     /// The next COMMAND_ACK to send. Call until `None`.
     pub fn poll_transmit(&mut self, _now_us: u64) -> Option<Message> {
         if let Some((from, command)) = self.busy.take() {
-            return Some(ack_message(from, command, Ack::new(MavResult::TemporarilyRejected)));
+            return Some(ack_message(
+                from,
+                command,
+                Ack::new(MavResult::TemporarilyRejected),
+            ));
         }
         let s = self.seen.iter_mut().flatten().find(|s| s.ack_due)?;
         s.ack_due = false;
