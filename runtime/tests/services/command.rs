@@ -399,7 +399,7 @@ impl Node for Vehicle {
         if let Some(Request::Run { from, command }) = self.server.handle(now, from, msg) {
             let i = command.params[1] as u32;
             *self.runs.entry(i).or_default() += 1;
-            if i % 3 == 0 {
+            if i.is_multiple_of(3) {
                 self.server.respond(
                     now,
                     from,
