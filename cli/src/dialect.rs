@@ -50,15 +50,53 @@ impl Dialects {
 
     /// Our own definitions.
     pub fn own() -> Result<Self, String> {
+        Self::built_in(OWN)
+    }
+
+    /// The microservices' messages and enums (common.xml's), as the runtime's state machines
+    /// know them: the names of MAV_CMD and MAV_RESULT values.
+    pub fn services() -> Result<Self, String> {
+        Self::built_in(&[(
+            "microservices.xml",
+            include_str!("../../definitions/runtime/microservices.xml"),
+        )])
+    }
+
+    fn built_in(texts: &[(&str, &str)]) -> Result<Self, String> {
         let dir = tempfile::tempdir().map_err(|e| format!("a temporary directory: {e}"))?;
         let mut files = Vec::new();
-        for (name, text) in OWN {
+        for (name, text) in texts {
             let path = dir.path().join(name);
             std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
             files.push(path);
         }
         let checked = ferrolink_dictionary::load(&files).map_err(|failed| failed.to_string())?;
         Ok(Self::new(checked.ir))
+    }
+
+    /// The value of entry `name` of enum `enum_name` (`MAV_CMD`), the name with or without the
+    /// enum's prefix, any case.
+    pub fn entry_value(&self, enum_name: &str, name: &str) -> Option<u64> {
+        let upper = name.to_ascii_uppercase();
+        let prefixed = format!("{enum_name}_{upper}");
+        self.ir
+            .enums
+            .iter()
+            .filter(|e| e.name.wire == enum_name)
+            .flat_map(|e| &e.entries)
+            .find(|e| e.name.wire == upper || e.name.wire == prefixed)
+            .map(|e| e.value)
+    }
+
+    /// The wire name of value `value` of enum `enum_name`.
+    pub fn entry_name(&self, enum_name: &str, value: u64) -> Option<&str> {
+        self.ir
+            .enums
+            .iter()
+            .filter(|e| e.name.wire == enum_name)
+            .flat_map(|e| &e.entries)
+            .find(|e| e.value == value)
+            .map(|e| e.name.wire.as_str())
     }
 
     fn new(ir: Ir) -> Self {

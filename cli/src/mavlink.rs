@@ -1,4 +1,5 @@
-//! `ferrolink mavlink`: the router daemon and the log tools.
+//! `ferrolink mavlink`: the router daemon, the log tools, and the microservices' client and
+//! software vehicle (in `mavlink_services`).
 
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -96,6 +97,15 @@ pub enum Command {
         #[arg(long, value_name = "FILE.xml")]
         dialect: Vec<PathBuf>,
     },
+    /// Parameters of a vehicle: list, get, set.
+    #[command(subcommand)]
+    Param(crate::mavlink_services::ParamCommand),
+    /// Send a command (COMMAND_LONG, or COMMAND_INT with --int), retrying, and print its
+    /// answer. Exit 0 on ACCEPTED, 1 on another result, 2 when nothing answered.
+    Command(crate::mavlink_services::CommandArgs),
+    /// A software vehicle: HEARTBEAT, parameters and commands on every endpoint, for testing
+    /// ground software. Prints `ready` once every endpoint is open.
+    Vehicle(crate::mavlink_services::VehicleArgs),
     /// Per source: message rates and sequence loss of a .tlog; optionally a plot of message
     /// rates over time.
     Stats {
@@ -293,6 +303,9 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             plot,
             file,
         } => crate::mavlink_stats::run(&dialect, plot.as_deref(), &file),
+        Command::Param(command) => crate::mavlink_services::param(command),
+        Command::Command(args) => crate::mavlink_services::command(args),
+        Command::Vehicle(args) => crate::mavlink_services::vehicle(args),
     }
 }
 

@@ -20,8 +20,11 @@
 //! [`Connection::recv`] waits at most a given time.
 
 pub mod config;
+pub mod paramfile;
 pub mod router;
+pub mod services;
 pub mod tlog;
+pub mod vehicle;
 
 use std::collections::VecDeque;
 use std::io;

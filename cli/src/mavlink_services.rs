@@ -1,0 +1,445 @@
+//! `ferrolink mavlink param|command|vehicle`: the microservices from the command line, and the
+//! software vehicle that serves them.
+
+use std::io::Write;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
+use clap::{Args, Subcommand, ValueEnum};
+use ferrolink_io::mavlink::paramfile;
+use ferrolink_io::mavlink::services::{self, Peer, Remote};
+use ferrolink_io::mavlink::{vehicle, Connection};
+use ferrolink_runtime::mavlink::service::command::Command as MavCommand;
+use ferrolink_runtime::mavlink::service::messages::{
+    MavAutopilot, MavCmd, MavFrame, MavResult, MavType,
+};
+use ferrolink_runtime::mavlink::service::param::{Received, Value};
+use ferrolink_runtime::mavlink::service::Address;
+
+use crate::dialect::Dialects;
+
+/// How long a client waits for the vehicle's first HEARTBEAT.
+const DISCOVERY: Duration = Duration::from_secs(10);
+
+/// The target, as `--target SYS/COMP`.
+#[derive(Args, Clone, Copy)]
+pub struct TargetArg {
+    /// The target system and component [default: the first vehicle heard, component 1].
+    #[arg(long, value_name = "SYS/COMP", value_parser = parse_target)]
+    target: Option<Address>,
+}
+
+fn parse_target(s: &str) -> std::result::Result<Address, String> {
+    let (sys, comp) = s
+        .split_once('/')
+        .ok_or_else(|| format!("`{s}`: write the target as SYS/COMP, e.g. 1/1"))?;
+    let id = |v: &str| {
+        v.trim()
+            .parse::<u8>()
+            .map_err(|_| format!("`{v}` in `{s}` is not an id from 0 to 255"))
+    };
+    Ok(Address::new(id(sys)?, id(comp)?))
+}
+
+#[derive(Subcommand)]
+pub enum ParamCommand {
+    /// Fetch every parameter; print one JSON line each, in index order. Exit 0 once all are in,
+    /// 1 if some are still missing at the timeout.
+    List {
+        /// The connection: udpin://, udpout://, tcpin://, tcpout://, serial://.
+        uri: String,
+        #[command(flatten)]
+        target: TargetArg,
+        /// Give up after SECS seconds.
+        #[arg(long, value_name = "SECS", default_value_t = 60.0)]
+        timeout: f64,
+    },
+    /// Read one parameter and print it as a JSON line.
+    Get {
+        /// The connection.
+        uri: String,
+        /// The parameter's name.
+        name: String,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+    /// Set one parameter and print what the vehicle reports; exit 0 only when it confirms
+    /// exactly the value set.
+    Set {
+        /// The connection.
+        uri: String,
+        /// The parameter's name.
+        name: String,
+        /// The value.
+        #[arg(allow_negative_numbers = true)]
+        value: String,
+        /// UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32 [default: the parameter's type,
+        /// read first].
+        #[arg(long = "type", value_name = "TYPE")]
+        ty: Option<String>,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+}
+
+/// `ferrolink mavlink command`.
+#[derive(Args)]
+pub struct CommandArgs {
+    /// The connection.
+    uri: String,
+    /// A MAV_CMD name (with or without the prefix) or number.
+    command: String,
+    /// param1 to param7 (with --int: param1 to param4, then x and y in degrees, then z).
+    #[arg(value_name = "P", num_args = 0..=7, allow_negative_numbers = true)]
+    params: Vec<f64>,
+    /// Send COMMAND_INT (frame MAV_FRAME_GLOBAL) instead of COMMAND_LONG.
+    #[arg(long)]
+    int: bool,
+    #[command(flatten)]
+    target: TargetArg,
+}
+
+/// The autopilots a software vehicle can claim.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum Autopilot {
+    Generic,
+    Px4,
+    Ardupilotmega,
+}
+
+/// `ferrolink mavlink vehicle`.
+#[derive(Args)]
+pub struct VehicleArgs {
+    /// Dialect XML whose other messages its connections check and ignore; repeatable.
+    #[arg(long, value_name = "FILE.xml")]
+    dialect: Vec<PathBuf>,
+    /// Its system id.
+    #[arg(long, default_value_t = 1)]
+    sysid: u8,
+    /// Its component id.
+    #[arg(long, default_value_t = 1)]
+    compid: u8,
+    /// The autopilot its HEARTBEAT names, which also sets how it encodes integer parameters.
+    #[arg(long, value_enum, default_value = "generic")]
+    autopilot: Autopilot,
+    /// Its parameters: QGroundControl's .params, or MAVProxy's .parm (anything else).
+    #[arg(long, value_name = "FILE")]
+    params: Option<PathBuf>,
+    /// Stop after SECS seconds (SIGINT and SIGTERM stop it too).
+    #[arg(long, value_name = "SECS")]
+    run_for: Option<f64>,
+    /// udpin://HOST:PORT | udpout://HOST:PORT | tcpin://HOST:PORT | tcpout://HOST:PORT |
+    /// serial://PATH[:BAUD] | pty://NAME
+    #[arg(required = true, value_name = "ENDPOINT")]
+    endpoints: Vec<String>,
+}
+
+type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+
+fn open(uri: &str) -> Result<Connection> {
+    Connection::open(uri, services::TABLE).map_err(|e| format!("{uri}: {e}").into())
+}
+
+/// The target: the one given (its autopilot from its HEARTBEAT if one comes), or the first
+/// vehicle heard.
+fn find_target(link: &mut Connection, uri: &str, target: TargetArg) -> Result<Peer> {
+    let Some(address) = target.target else {
+        return services::wait_for_vehicle(link, DISCOVERY)?.ok_or_else(|| {
+            format!(
+                "no vehicle's HEARTBEAT on {uri} within {} s",
+                DISCOVERY.as_secs()
+            )
+            .into()
+        });
+    };
+    let deadline = std::time::Instant::now() + Duration::from_secs(3);
+    let mut autopilot = MavAutopilot::Generic;
+    while let Some(peer) = services::wait_for_vehicle(
+        link,
+        deadline.saturating_duration_since(std::time::Instant::now()),
+    )? {
+        if peer.address.system == address.system {
+            autopilot = peer.autopilot;
+            break;
+        }
+    }
+    Ok(Peer {
+        address,
+        autopilot,
+        kind: MavType::Generic,
+    })
+}
+
+/// A received value as the contract's JSON line: `{"name": "...", "value": V, "type": "INT32",
+/// "index": I}`, integers as JSON integers.
+fn value_line(r: &Received) -> String {
+    let value = match r.value {
+        // The shortest text that reads back as the same f32.
+        Some(Value::F32(v)) if v.is_finite() => format!("{v:?}"),
+        Some(Value::F32(_)) | None => "null".into(),
+        Some(v) => (v.as_f64() as i64).to_string(),
+    };
+    let ty = r
+        .value
+        .map_or("UNKNOWN", |v| paramfile::type_name(v.param_type()));
+    format!(
+        "{{\"name\": {}, \"value\": {value}, \"type\": \"{ty}\", \"index\": {}}}",
+        serde_json::json!(r.name.as_str()),
+        r.index
+    )
+}
+
+/// The contract's line for a command's answer: `{"command": ID, "result": "MAV_RESULT_...",
+/// "progress": [..]}` (`null` result when nothing answered).
+fn command_line(id: u16, result: Option<&str>, progress: &[u8]) -> String {
+    format!(
+        "{{\"command\": {id}, \"result\": {}, \"progress\": {}}}",
+        serde_json::json!(result),
+        serde_json::json!(progress)
+    )
+}
+
+pub fn param(command: ParamCommand) -> Result<ExitCode> {
+    match command {
+        ParamCommand::List {
+            uri,
+            target,
+            timeout,
+        } => {
+            let timeout = Duration::try_from_secs_f64(timeout)
+                .map_err(|e| format!("--timeout {timeout}: {e}"))?;
+            let mut link = open(&uri)?;
+            let peer = find_target(&mut link, &uri, target)?;
+            let mut remote = Remote::new(&mut link, peer);
+            let list = remote.fetch_params(timeout, |_| {})?;
+            let mut out = std::io::stdout().lock();
+            for r in list.values.iter().flatten() {
+                if writeln!(out, "{}", value_line(r)).is_err() {
+                    break;
+                }
+            }
+            let missing = list.missing();
+            if list.count == 0 && list.values.is_empty() {
+                eprintln!(
+                    "no parameter arrived from {}/{} within {} s",
+                    peer.address.system,
+                    peer.address.component,
+                    timeout.as_secs_f64()
+                );
+                return Ok(ExitCode::FAILURE);
+            }
+            if missing > 0 {
+                eprintln!(
+                    "{missing} of {} parameters still missing after {} s",
+                    list.count,
+                    timeout.as_secs_f64()
+                );
+                return Ok(ExitCode::FAILURE);
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        ParamCommand::Get { uri, name, target } => {
+            check_name(&name)?;
+            let mut link = open(&uri)?;
+            let peer = find_target(&mut link, &uri, target)?;
+            let mut remote = Remote::new(&mut link, peer);
+            match remote.read_param(&name)? {
+                Some(r) => {
+                    println!("{}", value_line(&r));
+                    Ok(ExitCode::SUCCESS)
+                }
+                None => Err(unknown(&name, peer)),
+            }
+        }
+        ParamCommand::Set {
+            uri,
+            name,
+            value,
+            ty,
+            target,
+        } => {
+            check_name(&name)?;
+            let ty = ty
+                .map(|t| {
+                    paramfile::param_type(&t).ok_or_else(|| {
+                        format!(
+                            "--type {t}: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32"
+                        )
+                    })
+                })
+                .transpose()?;
+            let mut link = open(&uri)?;
+            let peer = find_target(&mut link, &uri, target)?;
+            let mut remote = Remote::new(&mut link, peer);
+            let ty = match ty {
+                Some(ty) => ty,
+                None => match remote.read_param(&name)? {
+                    Some(Received { value: Some(v), .. }) => v.param_type(),
+                    _ => return Err(unknown(&name, peer)),
+                },
+            };
+            let value = paramfile::parse_value(ty, &value).ok_or_else(|| {
+                format!(
+                    "`{value}` is not a value of type {}",
+                    paramfile::type_name(ty)
+                )
+            })?;
+            match remote.set_param(&name, value)? {
+                Some(r) => {
+                    println!("{}", value_line(&r));
+                    if r.value.is_some_and(|v| v.same(value)) {
+                        Ok(ExitCode::SUCCESS)
+                    } else {
+                        eprintln!("the vehicle holds another value than the one set");
+                        Ok(ExitCode::FAILURE)
+                    }
+                }
+                None => Err(unknown(&name, peer)),
+            }
+        }
+    }
+}
+
+fn check_name(name: &str) -> Result<()> {
+    if name.is_empty() || name.len() > 16 {
+        return Err(format!("`{name}`: parameter names are 1 to 16 bytes").into());
+    }
+    Ok(())
+}
+
+fn unknown(name: &str, peer: Peer) -> Box<dyn std::error::Error> {
+    format!(
+        "no answer about `{name}` from {}/{}: the vehicle has no such parameter, or does not answer",
+        peer.address.system, peer.address.component
+    )
+    .into()
+}
+
+pub fn command(args: CommandArgs) -> Result<ExitCode> {
+    let names = Dialects::services()?;
+    let id = match args.command.parse::<u16>() {
+        Ok(id) => id,
+        Err(_) => names
+            .entry_value("MAV_CMD", &args.command)
+            .and_then(|v| u16::try_from(v).ok())
+            .ok_or_else(|| {
+                format!(
+                    "`{}` is not a MAV_CMD name or number (e.g. COMPONENT_ARM_DISARM or 400)",
+                    args.command
+                )
+            })?,
+    };
+    let mut p = [0.0f64; 7];
+    p[..args.params.len()].copy_from_slice(&args.params);
+    let first = [p[0] as f32, p[1] as f32, p[2] as f32, p[3] as f32];
+    let command = if args.int {
+        MavCommand::int(
+            MavCmd::from_raw(id),
+            MavFrame::Global,
+            first,
+            p[4],
+            p[5],
+            p[6] as f32,
+        )
+    } else {
+        let mut c = MavCommand::long(MavCmd::from_raw(id), [0.0; 7]);
+        c.params = first;
+        (c.x, c.y, c.z) = (p[4], p[5], p[6] as f32);
+        c
+    };
+    let mut link = open(&args.uri)?;
+    let peer = match find_target(&mut link, &args.uri, args.target) {
+        Ok(peer) => peer,
+        Err(e) => {
+            eprintln!("{e}");
+            return Ok(ExitCode::from(2));
+        }
+    };
+    let mut remote = Remote::new(&mut link, peer);
+    let mut progress = Vec::new();
+    let ack = remote.command(command, |p| progress.push(p))?;
+    let Some(ack) = ack else {
+        println!("{}", command_line(id, None, &progress));
+        eprintln!(
+            "no answer from {}/{} after {} tries",
+            peer.address.system,
+            peer.address.component,
+            remote.command_config.retry.retries + 1
+        );
+        return Ok(ExitCode::from(2));
+    };
+    let result = names
+        .entry_name("MAV_RESULT", u64::from(ack.result.raw()))
+        .map_or_else(|| ack.result.raw().to_string(), str::to_string);
+    println!("{}", command_line(id, Some(&result), &progress));
+    Ok(if ack.result == MavResult::Accepted {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+pub fn vehicle(args: VehicleArgs) -> Result<ExitCode> {
+    let params = match &args.params {
+        Some(path) => paramfile::read(path).map_err(|errors| {
+            errors
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join("\n")
+        })?,
+        None => Vec::new(),
+    };
+    if params.len() > usize::from(u16::MAX - 1) {
+        return Err(format!(
+            "{} parameters: PARAM_VALUE counts at most 65534",
+            params.len()
+        )
+        .into());
+    }
+    let mut table = Dialects::services()?.table.to_vec();
+    if !args.dialect.is_empty() {
+        for m in Dialects::load(&args.dialect)?.table.iter() {
+            if !table.iter().any(|t| t.id == m.id) {
+                table.push(*m);
+            }
+        }
+        table.sort_by_key(|m| m.id);
+    }
+    let config = vehicle::Config {
+        address: Address::new(args.sysid, args.compid),
+        autopilot: match args.autopilot {
+            Autopilot::Generic => MavAutopilot::Generic,
+            Autopilot::Px4 => MavAutopilot::Px4,
+            Autopilot::Ardupilotmega => MavAutopilot::Ardupilotmega,
+        },
+        kind: MavType::Quadrotor,
+        params,
+        table: table.into(),
+    };
+    let run_for = args
+        .run_for
+        .map(|s| Duration::try_from_secs_f64(s).map_err(|e| format!("--run-for {s}: {e}")))
+        .transpose()?;
+    for uri in &args.endpoints {
+        ferrolink_io::mavlink::ENDPOINTS.endpoint(uri)?;
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, stop.clone())?;
+    }
+    vehicle::run(&config, &args.endpoints, run_for, &stop, || {
+        println!(
+            "ready: vehicle {}/{} with {} parameters on {}",
+            args.sysid,
+            args.compid,
+            config.params.len(),
+            args.endpoints.join(", ")
+        );
+        let _ = std::io::stdout().flush();
+    })?;
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,289 @@
+//! The microservices on a [`Connection`]: a blocking client for commands and parameters
+//! ([`Remote`]), on the runtime's state machines
+//! ([`ferrolink_runtime::mavlink::service`]).
+//!
+//! ```no_run
+//! use std::time::Duration;
+//! use ferrolink_io::mavlink::services::{self, Remote};
+//! use ferrolink_io::mavlink::Connection;
+//!
+//! let mut link = Connection::open("udpin://0.0.0.0:14550", services::TABLE)?;
+//! let vehicle = services::wait_for_vehicle(&mut link, Duration::from_secs(5))?
+//!     .expect("no vehicle");
+//! let mut remote = Remote::new(&mut link, vehicle);
+//! let list = remote.fetch_params(Duration::from_secs(30), |_| {})?;
+//! println!("{} of {} parameters", list.values.len(), list.count);
+//! # Ok::<(), std::io::Error>(())
+//! ```
+
+use std::io;
+use std::time::{Duration, Instant};
+
+use ferrolink_runtime::mavlink::service::command::{self, Ack, Command};
+use ferrolink_runtime::mavlink::service::messages::{
+    Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType, Message,
+};
+use ferrolink_runtime::mavlink::service::param::{self, Encoding, Name, Received, Value};
+use ferrolink_runtime::mavlink::service::Address;
+use ferrolink_runtime::mavlink::{Dialect, MessageMeta};
+
+use super::Connection;
+
+/// The messages the services use: a table to open a [`Connection`] with when nothing else is
+/// needed.
+pub const TABLE: &[MessageMeta] = Message::META;
+
+/// A system heard in a HEARTBEAT.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Peer {
+    /// Its system and component.
+    pub address: Address,
+    /// Its autopilot.
+    pub autopilot: MavAutopilot,
+    /// Its vehicle type.
+    pub kind: MavType,
+}
+
+/// Waits up to `timeout` for the first HEARTBEAT whose autopilot is not
+/// `MAV_AUTOPILOT_INVALID` (a vehicle, not a ground station or a camera), answering with our
+/// own heartbeats meanwhile. The target is that system's component 1, as ground stations take
+/// it.
+pub fn wait_for_vehicle(link: &mut Connection, timeout: Duration) -> io::Result<Option<Peer>> {
+    let deadline = Instant::now() + timeout;
+    let mut beat = Instant::now();
+    loop {
+        let now = Instant::now();
+        if now >= beat {
+            send_heartbeat(link);
+            beat = now + Duration::from_secs(1);
+        }
+        let left = deadline.saturating_duration_since(now).min(beat - now);
+        if now >= deadline {
+            return Ok(None);
+        }
+        let Some(frame) = link.recv(left)? else {
+            continue;
+        };
+        if let Ok(Message::Heartbeat(hb)) = frame.decode::<Message>() {
+            if hb.autopilot != MavAutopilot::Invalid {
+                let h = frame.header();
+                return Ok(Some(Peer {
+                    address: Address::new(h.sysid, 1),
+                    autopilot: hb.autopilot,
+                    kind: hb.r#type,
+                }));
+            }
+        }
+    }
+}
+
+/// Our HEARTBEAT as a ground station. A peer that is not there yet is no error.
+fn send_heartbeat(link: &mut Connection) {
+    let hb = Message::Heartbeat(Heartbeat {
+        r#type: MavType::Gcs,
+        autopilot: MavAutopilot::Invalid,
+        base_mode: MavModeFlag::default(),
+        custom_mode: 0,
+        system_status: MavState::Active,
+        mavlink_version: 3,
+    });
+    let _ = link.send_dialect(&hb);
+}
+
+/// The parameters a fetch got.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamList {
+    /// The target's count.
+    pub count: u16,
+    /// The values by index; `None` where one never came.
+    pub values: Vec<Option<Received>>,
+}
+
+impl ParamList {
+    /// How many values never came.
+    pub fn missing(&self) -> usize {
+        self.values.iter().filter(|v| v.is_none()).count()
+    }
+}
+
+/// A target system seen through a connection: commands and parameters, blocking.
+#[derive(Debug)]
+pub struct Remote<'c> {
+    link: &'c mut Connection,
+    target: Peer,
+    start: Instant,
+    beat: Instant,
+    /// Overrides the target's parameter encoding (which otherwise follows its autopilot).
+    pub encoding: Option<Encoding>,
+    /// The command client's settings.
+    pub command_config: command::ClientConfig,
+    /// The parameter client's settings.
+    pub param_config: param::ClientConfig,
+}
+
+impl<'c> Remote<'c> {
+    /// `target` through `link`, which sends as 255/190 unless set otherwise.
+    pub fn new(link: &'c mut Connection, target: Peer) -> Self {
+        let own = Address::new(link.sysid, link.compid);
+        Self {
+            link,
+            target,
+            start: Instant::now(),
+            beat: Instant::now(),
+            encoding: None,
+            command_config: command::ClientConfig::new(own),
+            param_config: param::ClientConfig::new(own),
+        }
+    }
+
+    /// The target.
+    pub fn target(&self) -> Peer {
+        self.target
+    }
+
+    fn now_us(&self) -> u64 {
+        self.start.elapsed().as_micros() as u64
+    }
+
+    /// The next service message from anyone, or `None` at `until_us`. Our heartbeat goes out
+    /// once a second meanwhile.
+    fn next(&mut self, until_us: u64) -> io::Result<Option<(Address, Message)>> {
+        loop {
+            let now = Instant::now();
+            if now >= self.beat {
+                send_heartbeat(self.link);
+                self.beat = now + Duration::from_secs(1);
+            }
+            let now_us = self.now_us();
+            if now_us >= until_us {
+                return Ok(None);
+            }
+            let wait = Duration::from_micros(until_us - now_us).min(self.beat - now);
+            if let Some(frame) = self.link.recv(wait)? {
+                if let Ok(msg) = frame.decode::<Message>() {
+                    let h = frame.header();
+                    return Ok(Some((Address::new(h.sysid, h.compid), msg)));
+                }
+            }
+        }
+    }
+
+    fn send(&mut self, msg: &Message) -> io::Result<()> {
+        self.link.send_dialect(msg)
+    }
+
+    /// Sends `command` and waits for its final answer; `progress` sees each `IN_PROGRESS`.
+    /// `None` when nothing answered after the retries.
+    pub fn command(
+        &mut self,
+        command: Command,
+        mut progress: impl FnMut(u8),
+    ) -> io::Result<Option<Ack>> {
+        let mut client: command::Client<1> = command::Client::new(self.command_config);
+        let target = self.target.address;
+        client
+            .send(self.now_us(), target, command)
+            .map_err(|e| io::Error::other(e.to_string()))?;
+        loop {
+            let now = self.now_us();
+            while let Some(m) = client.poll_transmit(now) {
+                self.send(&m)?;
+            }
+            while let Some(e) = client.poll_event() {
+                match e {
+                    command::Event::Progress { progress: p, .. } => progress(p),
+                    command::Event::Done { ack, .. } => return Ok(ack),
+                }
+            }
+            let until = client.poll_timeout().unwrap_or(now + 1_000_000);
+            if let Some((from, msg)) = self.next(until)? {
+                client.handle(self.now_us(), from, &msg);
+            }
+        }
+    }
+
+    fn param_client(&self) -> param::Client<2048> {
+        let mut config = self.param_config;
+        config.encoding = self
+            .encoding
+            .or(Some(Encoding::for_autopilot(self.target.autopilot)));
+        param::Client::new(config, self.target.address)
+    }
+
+    /// Runs a parameter operation until its event, or until `timeout` passes (`None`).
+    fn run_param(
+        &mut self,
+        client: &mut param::Client<2048>,
+        timeout: Option<Duration>,
+        mut on_value: impl FnMut(&Received),
+    ) -> io::Result<Option<param::Event>> {
+        let end = timeout.map(|t| self.now_us() + t.as_micros() as u64);
+        loop {
+            let now = self.now_us();
+            while let Some(m) = client.poll_transmit(now) {
+                self.send(&m)?;
+            }
+            if let Some(e) = client.poll_event() {
+                return Ok(Some(e));
+            }
+            if end.is_some_and(|end| now >= end) {
+                return Ok(None);
+            }
+            let until = client.poll_timeout().unwrap_or(now + 1_000_000).max(now);
+            let until = end.map_or(until, |end| until.min(end));
+            if let Some((from, msg)) = self.next(until.max(now + 1))? {
+                if let Some(r) = client.handle(self.now_us(), from, &msg) {
+                    on_value(&r);
+                }
+            }
+        }
+    }
+
+    /// Fetches every parameter, re-requesting what the stream left out, for at most `timeout`.
+    /// `on_value` sees each value as it arrives (repeats too).
+    pub fn fetch_params(
+        &mut self,
+        timeout: Duration,
+        mut on_value: impl FnMut(&Received),
+    ) -> io::Result<ParamList> {
+        let mut client = self.param_client();
+        let _ = client.list();
+        let mut list = ParamList {
+            count: 0,
+            values: Vec::new(),
+        };
+        self.run_param(&mut client, Some(timeout), |r| {
+            if r.index >= r.count {
+                return;
+            }
+            if r.count != list.count {
+                list.count = r.count;
+                list.values = vec![None; usize::from(r.count)];
+            }
+            list.values[usize::from(r.index)] = Some(*r);
+            on_value(r);
+        })?;
+        Ok(list)
+    }
+
+    /// Reads the parameter called `name`; `None` if nothing answered.
+    pub fn read_param(&mut self, name: &str) -> io::Result<Option<Received>> {
+        let mut client = self.param_client();
+        let _ = client.read(Name::from(name));
+        match self.run_param(&mut client, None, |_| {})? {
+            Some(param::Event::Read(r)) => Ok(r),
+            _ => Ok(None),
+        }
+    }
+
+    /// Sets the parameter called `name` to `value` and returns what the target reports it holds
+    /// then (the set took if that is `value`); `None` if nothing answered.
+    pub fn set_param(&mut self, name: &str, value: Value) -> io::Result<Option<Received>> {
+        let mut client = self.param_client();
+        let _ = client.set(Name::from(name), value);
+        match self.run_param(&mut client, None, |_| {})? {
+            Some(param::Event::Set(r)) => Ok(r),
+            _ => Ok(None),
+        }
+    }
+}
