@@ -103,7 +103,7 @@ pub enum Command {
     /// Send a command (COMMAND_LONG, or COMMAND_INT with --int), retrying, and print its
     /// answer. Exit 0 on ACCEPTED, 1 on another result, 2 when nothing answered.
     #[command(name = "command")]
-    SendCommand(crate::mavlink_services::CommandArgs),
+    Cmd(crate::mavlink_services::CommandArgs),
     /// A software vehicle: HEARTBEAT, parameters and commands on every endpoint, for testing
     /// ground software. Prints `ready` once every endpoint is open.
     Vehicle(crate::mavlink_services::VehicleArgs),
@@ -305,7 +305,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             file,
         } => crate::mavlink_stats::run(&dialect, plot.as_deref(), &file),
         Command::Param(command) => crate::mavlink_services::param(command),
-        Command::SendCommand(args) => crate::mavlink_services::command(args),
+        Command::Cmd(args) => crate::mavlink_services::command(args),
         Command::Vehicle(args) => crate::mavlink_services::vehicle(args),
     }
 }
