@@ -1,0 +1,488 @@
+#!/usr/bin/env python3
+"""The microservices against MAVSDK, in both directions, on clean and lossy links.
+
+    services_mavsdk.py --ferrolink BIN --workdir DIR [--only CHECK,...] [--seed N]
+
+Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M failed``):
+
+  mavsdk_params      MAVSDK's Param plugin (the ground station) against
+                     ``ferrolink mavlink vehicle``, once claiming PX4 (bytewise integers) and
+                     once ArduPilot (C-cast integers): every parameter listed with its value,
+                     an int and a float set and read back.
+  mavsdk_action      MAVSDK's Action plugin arms our vehicle, takes off and disarms.
+  our_params         ``ferrolink mavlink param list|get|set`` against a vehicle built from
+                     MAVSDK's ParamServer plugin: every value listed bit-exact, an int and a
+                     float set, and MAVSDK's server reports the change.
+  our_command        ``ferrolink mavlink command`` arms a vehicle built from MAVSDK's
+                     ActionServer plugin; MAVSDK's server reports the arming. A command
+                     MAVSDK does not answer exits 2 after the retries.
+  lossy_params       both ``param list`` directions again through a UDP relay that loses 20 %
+                     of datagrams, repeats 5 % and delays some past later ones (seeded):
+                     MAVSDK lists our vehicle, and we list MAVSDK's ParamServer, every value
+                     exact.
+
+Known MAVSDK 4.1 quirk taken into account: ``get_all_params`` leaves out the unsigned integer
+types (UINT8, UINT16 and UINT32), so MAVSDK's listing is compared on the signed ones and the
+floats; our own client checks the unsigned ones against the same vehicle.
+"""
+import argparse
+import asyncio
+import json
+import os
+import random
+import socket
+import struct
+import sys
+import threading
+import time
+
+sys.dont_write_bytecode = True  # keep the source tree clean
+
+HOST = "127.0.0.1"
+
+
+class CheckFailed(Exception):
+    pass
+
+
+class CheckSkipped(Exception):
+    pass
+
+
+def free_udp_port():
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind((HOST, 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def f32(x):
+    """x rounded to the nearest float32, as a Python float."""
+    return struct.unpack("<f", struct.pack("<f", x))[0]
+
+
+# The vehicle's parameters: (name, QGC type number, value). Integers of every width with values
+# that need all their bits, and floats that are not round in binary.
+PARAMS = [
+    ("U8_PARAM", 1, 200),
+    ("I8_PARAM", 2, -100),
+    ("U16_PARAM", 3, 65000),
+    ("I16_PARAM", 4, -30000),
+    ("U32_PARAM", 5, 4000000),
+    ("I32_PARAM", 6, -4000000),
+    ("I32_SMALL", 6, 7),
+    ("F_PARAM", 9, 0.1),
+    ("F_NEG", 9, -1234.5678),
+    ("F_TINY", 9, 1e-20),
+]
+INTS = {n: v for n, t, v in PARAMS if t != 9}
+FLOATS = {n: f32(v) for n, t, v in PARAMS if t == 9}
+
+
+def write_params(path):
+    with open(path, "w") as f:
+        f.write("# Vehicle-Id Component-Id Name Value Type\n")
+        for name, ty, value in PARAMS:
+            f.write("1\t1\t%s\t%r\t%d\n" % (name, value, ty))
+
+
+class Relay:
+    """A UDP relay between a sender that connects to ``front`` and a listener at ``back_to``,
+    losing, repeating and delaying datagrams in both directions (seeded)."""
+
+    def __init__(self, back_to, seed, loss=0.2, dup=0.05, reorder=0.05, delay=0.002, jitter=0.02):
+        self.front = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.front.bind((HOST, 0))
+        self.back = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.back.bind((HOST, 0))
+        self.back_to = back_to
+        self.front_peer = None
+        self.rng = random.Random(seed)
+        self.loss, self.dup, self.reorder, self.delay, self.jitter = loss, dup, reorder, delay, jitter
+        self.lock = threading.Lock()
+        self.stats = {"datagrams": 0, "lost": 0, "repeated": 0, "delayed": 0}
+        self.stop = threading.Event()
+        self.threads = [threading.Thread(target=self.pump, args=(self.front, True), daemon=True),
+                        threading.Thread(target=self.pump, args=(self.back, False), daemon=True)]
+        for t in self.threads:
+            t.start()
+
+    @property
+    def port(self):
+        return self.front.getsockname()[1]
+
+    def send_later(self, sock, data, to, wait):
+        timer = threading.Timer(wait, lambda: self.safe_send(sock, data, to))
+        timer.daemon = True
+        timer.start()
+
+    def safe_send(self, sock, data, to):
+        try:
+            sock.sendto(data, to)
+        except OSError:
+            pass
+
+    def pump(self, sock, from_front):
+        sock.settimeout(0.2)
+        while not self.stop.is_set():
+            try:
+                data, addr = sock.recvfrom(65536)
+            except socket.timeout:
+                continue
+            except OSError:
+                return
+            if from_front:
+                self.front_peer = addr
+                out, to = self.back, self.back_to
+            else:
+                if self.front_peer is None:
+                    continue
+                out, to = self.front, self.front_peer
+            with self.lock:
+                self.stats["datagrams"] += 1
+                if self.rng.random() < self.loss:
+                    self.stats["lost"] += 1
+                    continue
+                copies = 2 if self.rng.random() < self.dup else 1
+                if copies == 2:
+                    self.stats["repeated"] += 1
+                waits = []
+                for _ in range(copies):
+                    wait = self.delay
+                    if self.rng.random() < self.reorder:
+                        wait += self.rng.random() * self.jitter
+                        self.stats["delayed"] += 1
+                    waits.append(wait)
+            for wait in waits:
+                self.send_later(out, data, to, wait)
+
+    def close(self):
+        self.stop.set()
+        for t in self.threads:
+            t.join(1)
+        self.front.close()
+        self.back.close()
+
+
+async def start_vehicle(args, autopilot, port, seconds=60):
+    params = os.path.join(args.workdir, "vehicle.params")
+    write_params(params)
+    proc = await asyncio.create_subprocess_exec(
+        args.ferrolink, "mavlink", "vehicle", "--params", params, "--autopilot", autopilot,
+        "--run-for", str(seconds), "udpout://%s:%d" % (HOST, port),
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
+    line = await asyncio.wait_for(proc.stdout.readline(), 10)
+    if b"ready" not in line:
+        proc.kill()
+        raise CheckFailed("the vehicle did not start: %r %r" % (line, await proc.stderr.read()))
+    return proc
+
+
+async def stop(proc):
+    if proc.returncode is None:
+        proc.terminate()
+        try:
+            await asyncio.wait_for(proc.wait(), 5)
+        except asyncio.TimeoutError:
+            proc.kill()
+
+
+async def ferrolink(args, *argv, timeout=90):
+    proc = await asyncio.create_subprocess_exec(
+        args.ferrolink, "mavlink", *argv,
+        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
+    try:
+        out, err = await asyncio.wait_for(proc.communicate(), timeout)
+    except asyncio.TimeoutError:
+        proc.kill()
+        raise CheckFailed("ferrolink mavlink %s took over %d s" % (" ".join(argv), timeout))
+    return proc.returncode, out.decode(), err.decode()
+
+
+async def mavsdk_gcs(url):
+    from mavsdk.asyncio import Mavsdk, Configuration, ComponentType
+    cfg = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
+    mavsdk = Mavsdk(cfg)
+    await mavsdk.__aenter__()
+    await mavsdk.add_any_connection(url)
+    system = await mavsdk.first_autopilot(15.0)
+    if system is None:
+        await mavsdk.__aexit__(None, None, None)
+        raise CheckFailed("MAVSDK found no autopilot on %s" % url)
+    return mavsdk, system
+
+
+def compare_listing(allp, ints, floats):
+    got_i = {p.name: p.value for p in allp.int_params}
+    got_f = {p.name: p.value for p in allp.float_params}
+    # MAVSDK 4.1 leaves the unsigned types (UINT8, UINT16, UINT32) out of get_all_params.
+    want_i = {n: v for n, v in ints.items() if not n.startswith("U")}
+    if got_i != want_i:
+        raise CheckFailed("MAVSDK listed ints %s, the vehicle has %s" % (got_i, want_i))
+    if got_f != floats:
+        raise CheckFailed("MAVSDK listed floats %s, the vehicle has %s" % (got_f, floats))
+    return len(got_i) + len(got_f)
+
+
+async def check_mavsdk_params(args):
+    from mavsdk.asyncio.plugins.param import ParamAsync
+    notes = []
+    for autopilot in ("px4", "ardupilotmega"):
+        port = free_udp_port()
+        vehicle = await start_vehicle(args, autopilot, port)
+        try:
+            mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
+            try:
+                param = ParamAsync(system)
+                n = compare_listing(await param.get_all_params(), INTS, FLOATS)
+                await param.set_param_int("I32_PARAM", 123456)
+                await param.set_param_float("F_PARAM", 2.5)
+                got_i = await param.get_param_int("I32_PARAM")
+                got_f = await param.get_param_float("F_PARAM")
+                if (got_i, got_f) != (123456, 2.5):
+                    raise CheckFailed("%s: read back %s and %s after setting 123456 and 2.5"
+                                      % (autopilot, got_i, got_f))
+            finally:
+                await mavsdk.__aexit__(None, None, None)
+            # Our own client sees MAVSDK's sets, and the unsigned values MAVSDK does not list.
+            rc, out, err = await ferrolink(args, "param", "list", "udpin://%s:%d" % (HOST, port))
+            if rc != 0:
+                raise CheckFailed("%s: param list exited %d: %s" % (autopilot, rc, err))
+            want = dict(INTS, I32_PARAM=123456)
+            got = {l["name"]: l["value"] for l in map(json.loads, out.splitlines())}
+            for name, value in want.items():
+                if got.get(name) != value:
+                    raise CheckFailed("%s: after MAVSDK's set, param list had %s = %r, not %r"
+                                      % (autopilot, name, got.get(name), value))
+            if f32(got["F_PARAM"]) != 2.5:
+                raise CheckFailed("%s: F_PARAM listed as %r after MAVSDK set 2.5" % (autopilot, got["F_PARAM"]))
+            notes.append("%s: %d listed, int and float set" % (autopilot, n))
+        finally:
+            await stop(vehicle)
+    return "; ".join(notes)
+
+
+async def check_mavsdk_action(args):
+    from mavsdk.asyncio.plugins.action import ActionAsync
+    port = free_udp_port()
+    vehicle = await start_vehicle(args, "px4", port)
+    try:
+        mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
+        try:
+            action = ActionAsync(system)
+            await action.arm()
+            await action.takeoff()
+            await action.disarm()
+        finally:
+            await mavsdk.__aexit__(None, None, None)
+    finally:
+        await stop(vehicle)
+    return "arm, takeoff, disarm accepted"
+
+
+async def mavsdk_vehicle(url, params=True, action=False):
+    """A vehicle from MAVSDK's server plugins: returns (mavsdk, events, tasks)."""
+    from mavsdk.asyncio import Mavsdk, Configuration, ComponentType
+    from mavsdk.asyncio.plugins.param_server import ParamServerAsync
+    from mavsdk.asyncio.plugins.action_server import ActionServerAsync
+    cfg = Configuration.create_with_component_type(ComponentType.AUTOPILOT)
+    cfg.system_id = 1
+    cfg.component_id = 1
+    mavsdk = Mavsdk(cfg)
+    await mavsdk.__aenter__()
+    await mavsdk.add_any_connection(url)
+    component = await mavsdk.server_component()
+    events = []
+    tasks = []
+    keep = []
+    if params:
+        server = ParamServerAsync(component)
+        keep.append(server)
+        for name, value in INTS.items():
+            await server.provide_param_int(name, value)
+        for name, value in FLOATS.items():
+            await server.provide_param_float(name, value)
+
+        async def watch_ints():
+            async for p in server.subscribe_changed_param_int():
+                events.append(("int", p.name, p.value))
+
+        async def watch_floats():
+            async for p in server.subscribe_changed_param_float():
+                events.append(("float", p.name, p.value))
+        tasks += [asyncio.ensure_future(watch_ints()), asyncio.ensure_future(watch_floats())]
+    if action:
+        server = ActionServerAsync(component)
+        keep.append(server)
+        await server.set_armable(True, True)
+        await server.set_disarmable(True, True)
+
+        async def watch_arm():
+            async for _result, arm in server.subscribe_arm_disarm():
+                events.append(("arm", arm.arm, arm.force))
+        tasks.append(asyncio.ensure_future(watch_arm()))
+    return mavsdk, events, tasks, keep
+
+
+async def close_vehicle(mavsdk, tasks):
+    for t in tasks:
+        t.cancel()
+    await asyncio.gather(*tasks, return_exceptions=True)
+    await mavsdk.__aexit__(None, None, None)
+
+
+def check_list_output(out, who):
+    lines = [json.loads(l) for l in out.splitlines() if l.strip()]
+    got = {l["name"]: l for l in lines}
+    for name, value in INTS.items():
+        l = got.get(name)
+        if not l or l["value"] != value:
+            raise CheckFailed("%s: %s listed as %r, is %r" % (who, name, l, value))
+    for name, value in FLOATS.items():
+        l = got.get(name)
+        if not l or l["type"] != "REAL32" or f32(l["value"]) != value:
+            raise CheckFailed("%s: %s listed as %r, is %r" % (who, name, l, value))
+    if [l["index"] for l in lines] != list(range(len(lines))):
+        raise CheckFailed("%s: not in index order: %s" % (who, [l["index"] for l in lines]))
+    return len(lines)
+
+
+async def check_our_params(args):
+    port = free_udp_port()
+    uri = "udpin://%s:%d" % (HOST, port)
+    mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, port))
+    try:
+        rc, out, err = await ferrolink(args, "param", "list", uri, "--timeout", "30")
+        if rc != 0:
+            raise CheckFailed("param list exited %d: %s" % (rc, err))
+        n = check_list_output(out, "param list")
+        rc, out, err = await ferrolink(args, "param", "set", uri, "I32_PARAM", "-77")
+        if rc != 0 or json.loads(out)["value"] != -77:
+            raise CheckFailed("param set int: %d %r %r" % (rc, out, err))
+        rc, out, err = await ferrolink(args, "param", "set", uri, "F_PARAM", "0.25")
+        if rc != 0 or json.loads(out)["value"] != 0.25:
+            raise CheckFailed("param set float: %d %r %r" % (rc, out, err))
+        rc, out, err = await ferrolink(args, "param", "get", uri, "F_NEG")
+        if rc != 0 or f32(json.loads(out)["value"]) != FLOATS["F_NEG"]:
+            raise CheckFailed("param get: %d %r %r" % (rc, out, err))
+        await asyncio.sleep(0.5)
+        if ("int", "I32_PARAM", -77) not in events or ("float", "F_PARAM", 0.25) not in events:
+            raise CheckFailed("MAVSDK's ParamServer saw %s" % events)
+    finally:
+        await close_vehicle(mavsdk, tasks)
+    return "%d listed bit-exact, int and float set, MAVSDK saw both" % n
+
+
+async def check_our_command(args):
+    port = free_udp_port()
+    uri = "udpin://%s:%d" % (HOST, port)
+    mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, port),
+                                                      params=False, action=True)
+    try:
+        rc, out, err = await ferrolink(args, "command", uri, "COMPONENT_ARM_DISARM", "1")
+        line = json.loads(out) if out.strip() else {}
+        if rc != 0 or line.get("result") != "MAV_RESULT_ACCEPTED" or line.get("command") != 400:
+            raise CheckFailed("command exited %d: %r %r" % (rc, out, err))
+        await asyncio.sleep(0.5)
+        if not any(e[0] == "arm" and e[1] for e in events):
+            raise CheckFailed("MAVSDK's ActionServer saw %s" % events)
+        # A command MAVSDK's server does not handle: it never answers, so after the retries
+        # the result is null and the exit status 2.
+        rc, out, err = await ferrolink(args, "command", uri, "31000")
+        if rc != 2 or json.loads(out)["result"] is not None:
+            raise CheckFailed("an unanswered command: exit %d, %r %r" % (rc, out, err))
+    finally:
+        await close_vehicle(mavsdk, tasks)
+    return "armed (%s); an unanswered command exits 2" % (events,)
+
+
+async def check_lossy_params(args):
+    from mavsdk.asyncio.plugins.param import ParamAsync
+    notes = []
+    # MAVSDK lists our vehicle through the relay.
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed)
+    vehicle = await start_vehicle(args, "px4", relay.port)
+    try:
+        mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
+        try:
+            t0 = time.monotonic()
+            n = compare_listing(await ParamAsync(system).get_all_params(), INTS, FLOATS)
+            notes.append("MAVSDK listed our %d in %.1f s (%s)" % (n, time.monotonic() - t0, relay.stats))
+        finally:
+            await mavsdk.__aexit__(None, None, None)
+    finally:
+        await stop(vehicle)
+        relay.close()
+    # We list MAVSDK's ParamServer through the relay.
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed + 1)
+    mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, relay.port))
+    try:
+        t0 = time.monotonic()
+        rc, out, err = await ferrolink(args, "param", "list", "udpin://%s:%d" % (HOST, port),
+                                       "--timeout", "60")
+        if rc != 0:
+            raise CheckFailed("param list through the relay exited %d: %s" % (rc, err))
+        n = check_list_output(out, "param list through the relay")
+        notes.append("we listed MAVSDK's %d in %.1f s (%s)" % (n, time.monotonic() - t0, relay.stats))
+    finally:
+        await close_vehicle(mavsdk, tasks)
+        relay.close()
+    return "; ".join(notes)
+
+
+CHECKS = {
+    "mavsdk_params": check_mavsdk_params,
+    "mavsdk_action": check_mavsdk_action,
+    "our_params": check_our_params,
+    "our_command": check_our_command,
+    "lossy_params": check_lossy_params,
+}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--ferrolink", required=True)
+    ap.add_argument("--workdir", required=True)
+    ap.add_argument("--only", action="append", default=[])
+    ap.add_argument("--seed", type=int, default=20261126)
+    args = ap.parse_args()
+    args.ferrolink = os.path.abspath(args.ferrolink)
+    os.makedirs(args.workdir, exist_ok=True)
+    only = [n for item in args.only for n in item.split(",") if n]
+    try:
+        import mavsdk  # noqa: F401
+        have_mavsdk = True
+    except ImportError:
+        have_mavsdk = False
+    passed = failed = 0
+    for name, check in CHECKS.items():
+        if only and name not in only:
+            continue
+        if not have_mavsdk:
+            print("skip %s: Python package 'mavsdk' is not installed" % name, flush=True)
+            continue
+        t0 = time.monotonic()
+        try:
+            note = asyncio.run(check(args))
+        except CheckSkipped as e:
+            print("skip %s: %s" % (name, e), flush=True)
+            continue
+        except CheckFailed as e:
+            failed += 1
+            print("FAIL %s: %s" % (name, e), flush=True)
+            continue
+        except Exception as e:  # a bug in the driver is a failure, not a crash
+            failed += 1
+            print("FAIL %s: %s: %s" % (name, type(e).__name__, e), flush=True)
+            continue
+        passed += 1
+        print("ok   %s (%.1f s): %s" % (name, time.monotonic() - t0, note), flush=True)
+    print("%d passed, %d failed" % (passed, failed), flush=True)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
