@@ -155,21 +155,14 @@ fn find_target(link: &mut Connection, uri: &str, target: TargetArg) -> Result<Pe
             .into()
         });
     };
-    let deadline = std::time::Instant::now() + Duration::from_secs(3);
-    let mut autopilot = MavAutopilot::Generic;
-    while let Some(peer) = services::wait_for_vehicle(
-        link,
-        deadline.saturating_duration_since(std::time::Instant::now()),
-    )? {
-        if peer.address.system == address.system {
-            autopilot = peer.autopilot;
-            break;
-        }
-    }
+    // Its autopilot (for the parameter encoding) from its HEARTBEAT, if one comes soon.
+    let heard = services::wait_for_system(link, address.system, Duration::from_secs(3))?;
     Ok(Peer {
         address,
-        autopilot,
-        kind: MavType::Generic,
+        autopilot: heard.map_or(MavAutopilot::Generic, |p| p.autopilot),
+        kind: heard.map_or(MavType::Generic, |p| p.kind),
+        since_us: 0,
+        last_us: 0,
     })
 }
 

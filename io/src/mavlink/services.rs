@@ -24,6 +24,8 @@ use ferrolink_runtime::mavlink::service::messages::{
     Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType, Message,
 };
 use ferrolink_runtime::mavlink::service::param::{self, Encoding, Name, Received, Value};
+pub use ferrolink_runtime::mavlink::service::peers::Peer;
+use ferrolink_runtime::mavlink::service::peers::Peers;
 use ferrolink_runtime::mavlink::service::Address;
 use ferrolink_runtime::mavlink::{Dialect, MessageMeta};
 
@@ -33,45 +35,53 @@ use super::Connection;
 /// needed.
 pub const TABLE: &[MessageMeta] = Message::META;
 
-/// A system heard in a HEARTBEAT.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Peer {
-    /// Its system and component.
-    pub address: Address,
-    /// Its autopilot.
-    pub autopilot: MavAutopilot,
-    /// Its vehicle type.
-    pub kind: MavType,
+/// Waits up to `timeout` for the first vehicle (a HEARTBEAT whose autopilot is not
+/// `MAV_AUTOPILOT_INVALID`, not a ground station or a camera), answering with our own
+/// heartbeats meanwhile. The target is that system's component 1, as ground stations take it.
+pub fn wait_for_vehicle(link: &mut Connection, timeout: Duration) -> io::Result<Option<Peer>> {
+    wait_for(link, timeout, |peers| peers.first_vehicle())
 }
 
-/// Waits up to `timeout` for the first HEARTBEAT whose autopilot is not
-/// `MAV_AUTOPILOT_INVALID` (a vehicle, not a ground station or a camera), answering with our
-/// own heartbeats meanwhile. The target is that system's component 1, as ground stations take
-/// it.
-pub fn wait_for_vehicle(link: &mut Connection, timeout: Duration) -> io::Result<Option<Peer>> {
-    let deadline = Instant::now() + timeout;
-    let mut beat = Instant::now();
+/// Waits up to `timeout` for a HEARTBEAT from `system` (any component), answering with our
+/// own heartbeats meanwhile.
+pub fn wait_for_system(
+    link: &mut Connection,
+    system: u8,
+    timeout: Duration,
+) -> io::Result<Option<Peer>> {
+    wait_for(link, timeout, |peers| {
+        peers.iter().find(|p| p.address.system == system).copied()
+    })
+}
+
+fn wait_for(
+    link: &mut Connection,
+    timeout: Duration,
+    pick: impl Fn(&Peers<16>) -> Option<Peer>,
+) -> io::Result<Option<Peer>> {
+    let start = Instant::now();
+    let deadline = start + timeout;
+    let mut beat = start;
+    let mut peers: Peers<16> = Peers::new();
     loop {
         let now = Instant::now();
         if now >= beat {
             send_heartbeat(link);
             beat = now + Duration::from_secs(1);
         }
-        let left = deadline.saturating_duration_since(now).min(beat - now);
         if now >= deadline {
             return Ok(None);
         }
+        let left = deadline.saturating_duration_since(now).min(beat - now);
         let Some(frame) = link.recv(left)? else {
             continue;
         };
-        if let Ok(Message::Heartbeat(hb)) = frame.decode::<Message>() {
-            if hb.autopilot != MavAutopilot::Invalid {
-                let h = frame.header();
-                return Ok(Some(Peer {
-                    address: Address::new(h.sysid, 1),
-                    autopilot: hb.autopilot,
-                    kind: hb.r#type,
-                }));
+        if let Ok(msg) = frame.decode::<Message>() {
+            let h = frame.header();
+            let now_us = start.elapsed().as_micros() as u64;
+            peers.handle(now_us, Address::new(h.sysid, h.compid), &msg);
+            if let Some(peer) = pick(&peers) {
+                return Ok(Some(peer));
             }
         }
     }

@@ -1,5 +1,5 @@
 //! The MAVLink microservices as sans-I/O state machines: commands and parameters, on the client
-//! side and on the server (vehicle) side.
+//! side and on the server (vehicle) side, and the heartbeat table clients pick targets from.
 //!
 //! Each state machine owns no socket, clock or thread. It is fed messages and the time, and
 //! says what to send and when it wants to be woken:
@@ -26,6 +26,7 @@ pub mod generated;
 
 pub mod command;
 pub mod param;
+pub mod peers;
 
 pub use generated::microservices as messages;
 
@@ -77,4 +78,46 @@ pub(crate) fn round_i32(v: f64) -> i32 {
     let r = if v >= 0.0 { v + 0.5 } else { v - 0.5 };
     // `as` saturates.
     r as i32
+}
+
+/// A round-trip time estimate, smoothed as TCP does (RFC 6298), so that a client's timeouts
+/// follow the link: short on a cable, long on a radio at range.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Rtt {
+    srtt_us: u64,
+    rttvar_us: u64,
+    sampled: bool,
+}
+
+impl Rtt {
+    /// The shortest timeout the estimate gives, whatever the link: 20 ms.
+    pub const MIN_TIMEOUT_US: u64 = 20_000;
+
+    /// A measured round trip: a request answered at its first sending (Karn's rule: never a
+    /// retried one).
+    pub fn sample(&mut self, rtt_us: u64) {
+        if self.sampled {
+            let diff = self.srtt_us.abs_diff(rtt_us);
+            self.rttvar_us = (3 * self.rttvar_us + diff) / 4;
+            self.srtt_us = (7 * self.srtt_us + rtt_us) / 8;
+        } else {
+            self.srtt_us = rtt_us;
+            self.rttvar_us = rtt_us / 2;
+            self.sampled = true;
+        }
+    }
+
+    /// The smoothed round trip, once measured.
+    pub fn smoothed_us(&self) -> Option<u64> {
+        self.sampled.then_some(self.srtt_us)
+    }
+
+    /// How long to wait for an answer: `srtt + 4 × rttvar`, between [`Rtt::MIN_TIMEOUT_US`]
+    /// and `max_us`; `max_us` until a round trip was measured.
+    pub fn timeout_us(&self, max_us: u64) -> u64 {
+        if !self.sampled {
+            return max_us;
+        }
+        (self.srtt_us + 4 * self.rttvar_us).clamp(Self::MIN_TIMEOUT_US.min(max_us), max_us)
+    }
 }

@@ -16,7 +16,7 @@ use super::messages::{
     Heartbeat, MavAutopilot, MavParamType, Message, ParamRequestList, ParamRequestRead, ParamSet,
     ParamValue,
 };
-use super::{Address, Retry};
+use super::{Address, Retry, Rtt};
 use crate::mavlink::CharArray;
 
 /// A parameter name: up to 16 bytes, NUL-padded.
@@ -325,6 +325,14 @@ pub struct Client<const W: usize> {
     progress: bool,
     deadline: Option<u64>,
     event: Option<Event>,
+    rtt: Rtt,
+    /// When the current request went out, if at its first sending (for an RTT sample).
+    sent_us: Option<u64>,
+    /// Fill re-requests out: (index, when), for RTT samples.
+    reads: [Option<(u16, u64)>; 8],
+    /// The last stream value's arrival, and the smoothed gap between values (µs).
+    last_value_us: Option<u64>,
+    gap_us: u64,
 }
 
 impl<const W: usize> Client<W> {
@@ -341,7 +349,31 @@ impl<const W: usize> Client<W> {
             progress: false,
             deadline: None,
             event: None,
+            rtt: Rtt::default(),
+            sent_us: None,
+            reads: [None; 8],
+            last_value_us: None,
+            gap_us: 0,
         }
+    }
+
+    /// The round-trip estimate, from requests answered at their first sending.
+    pub fn rtt(&self) -> &Rtt {
+        &self.rtt
+    }
+
+    /// How long to wait for an answer now.
+    fn timeout_us(&self) -> u64 {
+        self.rtt.timeout_us(self.config.retry.timeout_us)
+    }
+
+    /// How long a list stream may pause before what is missing is asked for: four smoothed
+    /// gaps between values or a round trip's timeout, whichever is longer, and never more
+    /// than the configured timeout.
+    fn gap_timeout_us(&self) -> u64 {
+        self.timeout_us()
+            .max(4 * self.gap_us)
+            .min(self.config.retry.timeout_us)
     }
 
     /// The encoding in use for the target.
@@ -361,6 +393,9 @@ impl<const W: usize> Client<W> {
         self.op = op;
         self.tries = 0;
         self.deadline = None;
+        self.sent_us = None;
+        self.reads = [None; 8];
+        self.last_value_us = None;
         Ok(())
     }
 
@@ -439,11 +474,27 @@ impl<const W: usize> Client<W> {
             count: v.param_count,
             value: Value::decode(v.param_value, v.param_type, self.encoding),
         };
-        let timeout = self.config.retry.timeout_us;
+        if let Some(sent) = self.sent_us.take() {
+            self.rtt.sample(now_us.saturating_sub(sent));
+        }
         match self.op {
             Op::Idle => {}
             Op::List { count, .. } => {
                 if received.index < received.count {
+                    if let Some(slot) = self
+                        .reads
+                        .iter_mut()
+                        .find(|r| r.is_some_and(|(i, _)| i == received.index))
+                    {
+                        if let Some((_, sent)) = slot.take() {
+                            self.rtt.sample(now_us.saturating_sub(sent));
+                        }
+                    }
+                    if let Some(last) = self.last_value_us {
+                        let gap = now_us.saturating_sub(last);
+                        self.gap_us = (7 * self.gap_us + gap) / 8;
+                    }
+                    self.last_value_us = Some(now_us);
                     if count != Some(received.count) {
                         // The first value, or the target's list changed: start counting again.
                         self.have = [0; W];
@@ -458,7 +509,14 @@ impl<const W: usize> Client<W> {
                             *in_flight = in_flight.saturating_sub(1);
                         }
                     }
-                    self.deadline = Some(now_us.saturating_add(timeout));
+                    // The stream's last index: what is missing now is lost, ask for it after a
+                    // round trip's wait rather than a pause's.
+                    let wait = if received.index + 1 == received.count {
+                        self.timeout_us()
+                    } else {
+                        self.gap_timeout_us()
+                    };
+                    self.deadline = Some(now_us.saturating_add(wait));
                     self.finish_list_if_complete();
                 }
             }
@@ -500,10 +558,8 @@ impl<const W: usize> Client<W> {
 
     /// The next request to send. Call until `None`.
     pub fn poll_transmit(&mut self, now_us: u64) -> Option<Message> {
-        let Retry {
-            timeout_us,
-            retries,
-        } = self.config.retry;
+        let retries = self.config.retry.retries;
+        let timeout_us = self.timeout_us();
         let due = self.deadline.is_none_or(|d| now_us >= d);
         let target = self.target;
         let msg = match self.op {
@@ -527,6 +583,7 @@ impl<const W: usize> Client<W> {
                 param_type: value.param_type(),
             }),
         };
+        self.sent_us = (self.tries == 0).then_some(now_us);
         self.tries = self.tries.saturating_add(1);
         self.deadline = Some(now_us.saturating_add(timeout_us));
         Some(msg)
@@ -543,10 +600,8 @@ impl<const W: usize> Client<W> {
         else {
             return None;
         };
-        let Retry {
-            timeout_us,
-            retries,
-        } = self.config.retry;
+        let retries = self.config.retry.retries;
+        let timeout_us = self.timeout_us();
         if self.deadline.is_some_and(|d| now_us >= d) && !request_due {
             // The stream went quiet, or re-requests went unanswered.
             if self.progress {
@@ -567,6 +622,8 @@ impl<const W: usize> Client<W> {
                     filling = true;
                     cursor = 0;
                     in_flight = 0;
+                    // Answers to the last round's reads no longer time anything.
+                    self.reads = [None; 8];
                 }
             }
             self.deadline = Some(now_us.saturating_add(timeout_us));
@@ -574,6 +631,8 @@ impl<const W: usize> Client<W> {
         let mut msg = None;
         if request_due {
             request_due = false;
+            // The first request is timed; a repeat is not (Karn).
+            self.sent_us = (count.is_none() && self.tries == 0).then_some(now_us);
             self.deadline = Some(now_us.saturating_add(timeout_us));
             msg = Some(Message::ParamRequestList(ParamRequestList {
                 target_system: self.target.system,
@@ -589,6 +648,9 @@ impl<const W: usize> Client<W> {
                 cursor = i + 1;
                 in_flight += 1;
                 self.deadline = Some(now_us.saturating_add(timeout_us));
+                if let Some(slot) = self.reads.iter_mut().find(|r| r.is_none()) {
+                    *slot = Some((i, now_us));
+                }
                 msg = Some(read_message(
                     self.target,
                     &Name::default(),
