@@ -2,7 +2,8 @@
 //!
 //! Every message is encoded to a MAVLink 2 frame and decoded again on arrival, so the wire
 //! layouts (and v2's trailing-zero truncation) are on the path. The link loses, repeats and
-//! delays frames; a delay with jitter reorders them.
+//! delays frames; a delay with jitter reorders them. With `TRACE` set in the environment,
+//! every message sent and delivered is printed.
 
 use ferrolink_runtime::mavlink::service::messages::Message;
 use ferrolink_runtime::mavlink::service::Address;
@@ -102,6 +103,13 @@ impl Sim {
         self.seq = self.seq.wrapping_add(1);
         let n = v2::encode_dialect(header, msg, &mut buf).expect("encode");
         self.stats.sent += 1;
+        if std::env::var_os("TRACE").is_some() {
+            eprintln!(
+                "{} {} -> {msg:?}",
+                self.now_us,
+                if to_b { "a" } else { "b" }
+            );
+        }
         if self.chance(self.faults.loss) {
             self.stats.lost += 1;
             return;
@@ -182,6 +190,9 @@ impl Sim {
                 let msg: Message = frame.decode().expect("a microservice message");
                 let from = Address::new(frame.sysid(), frame.compid());
                 self.stats.delivered += 1;
+                if std::env::var_os("TRACE").is_some() {
+                    eprintln!("{next} {} <- {msg:?}", if f.to_b { "b" } else { "a" });
+                }
                 if f.to_b {
                     b.handle(next, from, &msg);
                 } else {

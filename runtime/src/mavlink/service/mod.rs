@@ -1,4 +1,4 @@
-//! The MAVLink microservices as sans-I/O state machines: commands and parameters, on the client
+//! The MAVLink microservices as sans-I/O state machines: commands, parameters and missions, on the client
 //! side and on the server (vehicle) side, and the heartbeat table clients pick targets from.
 //!
 //! Each state machine owns no socket, clock or thread. It is fed messages and the time, and
@@ -25,6 +25,7 @@
 pub mod generated;
 
 pub mod command;
+pub mod mission;
 pub mod param;
 pub mod peers;
 
@@ -59,6 +60,17 @@ pub struct Retry {
     pub timeout_us: u64,
     /// Send again at most this many times after the first.
     pub retries: u8,
+}
+
+impl Retry {
+    /// Whether a peer silent for `silent_us`, through `tries` sendings, is given up: only after
+    /// as long as `retries + 1` of the longest waits, and at least twice as many sendings. A
+    /// client whose waits follow a short round trip asks many times in that time; one that has
+    /// not measured a round trip yet still asks `2 × (retries + 1)` times before it gives up.
+    pub fn exhausted(&self, silent_us: u64, tries: u8) -> bool {
+        let rounds = u64::from(self.retries) + 1;
+        silent_us >= self.timeout_us.saturating_mul(rounds) && u64::from(tries) >= 2 * rounds
+    }
 }
 
 /// The earlier of two optional deadlines.
@@ -107,6 +119,14 @@ impl Rtt {
         }
     }
 
+    /// When to time a sending at `now_us` from: at a request's first sending (Karn's rule), or
+    /// at any while nothing was measured yet (the answer may be to an earlier sending, which
+    /// only makes the first estimate short; a link that loses the first answers would
+    /// otherwise keep the longest timeout).
+    pub fn time_sending(&self, now_us: u64, first_try: bool) -> Option<u64> {
+        (first_try || !self.sampled).then_some(now_us)
+    }
+
     /// The smoothed round trip, once measured.
     pub fn smoothed_us(&self) -> Option<u64> {
         self.sampled.then_some(self.srtt_us)
@@ -119,5 +139,15 @@ impl Rtt {
             return max_us;
         }
         (self.srtt_us + 4 * self.rttvar_us).clamp(Self::MIN_TIMEOUT_US.min(max_us), max_us)
+    }
+
+    /// The wait after `tries` unanswered sendings: [`Rtt::timeout_us`] doubled for each of
+    /// the first two, so that a slow answer is not asked for again and again, and at most
+    /// `max_us`. No further: on a lossy link the waits stay short, and many tries fit in the
+    /// time a client with fixed timeouts gives an answer.
+    pub fn backoff_us(&self, max_us: u64, tries: u8) -> u64 {
+        self.timeout_us(max_us)
+            .saturating_mul(1 << tries.min(2))
+            .min(max_us)
     }
 }

@@ -362,9 +362,11 @@ impl<const W: usize> Client<W> {
         &self.rtt
     }
 
-    /// How long to wait for an answer now.
+    /// How long to wait for an answer now: the round trip's timeout, doubled for each try
+    /// that went unanswered.
     fn timeout_us(&self) -> u64 {
-        self.rtt.timeout_us(self.config.retry.timeout_us)
+        self.rtt
+            .backoff_us(self.config.retry.timeout_us, self.tries)
     }
 
     /// How long a list stream may pause before what is missing is asked for: four smoothed
@@ -583,7 +585,7 @@ impl<const W: usize> Client<W> {
                 param_type: value.param_type(),
             }),
         };
-        self.sent_us = (self.tries == 0).then_some(now_us);
+        self.sent_us = self.rtt.time_sending(now_us, self.tries == 0);
         self.tries = self.tries.saturating_add(1);
         self.deadline = Some(now_us.saturating_add(timeout_us));
         Some(msg)
@@ -632,7 +634,10 @@ impl<const W: usize> Client<W> {
         if request_due {
             request_due = false;
             // The first request is timed; a repeat is not (Karn).
-            self.sent_us = (count.is_none() && self.tries == 0).then_some(now_us);
+            self.sent_us = count
+                .is_none()
+                .then(|| self.rtt.time_sending(now_us, self.tries == 0))
+                .flatten();
             self.deadline = Some(now_us.saturating_add(timeout_us));
             msg = Some(Message::ParamRequestList(ParamRequestList {
                 target_system: self.target.system,

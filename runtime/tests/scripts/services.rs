@@ -1,0 +1,205 @@
+//! Scripts of arbitrary bytes for the microservices' state machines, shared by the property
+//! tests (`tests/services/main.rs`) and the `mavlink_services` fuzz target.
+//!
+//! A script is a sequence of steps, each chosen by one byte:
+//!
+//! - a message (any payload bytes, of one of the services' message ids) from any address,
+//!   handed to the parameter and command servers and to a parameter and a command client;
+//! - a clock step;
+//! - the application answering a command it was asked to run;
+//! - a client starting an operation (a list, a read, a set, a command).
+//!
+//! After every step each state machine is polled until it has nothing to send. Invariants:
+//!
+//! - nothing panics, and no state machine sends without end at one instant;
+//! - every PARAM_VALUE the server sends is one of its parameters, at its index, with the value
+//!   it holds, and the count it has;
+//! - a set never changes a parameter's type;
+//! - every COMMAND_ACK goes to the sender of a command, for that command's id;
+//! - a client's list ends with no more missing values than the count.
+
+use ferrolink_runtime::mavlink::service::command::{self, Ack, Request};
+use ferrolink_runtime::mavlink::service::messages::{MavCmd, MavResult, Message};
+use ferrolink_runtime::mavlink::service::param::{self, Encoding, Name, Param, Store, Value};
+use ferrolink_runtime::mavlink::service::Address;
+use ferrolink_runtime::mavlink::Dialect;
+
+const OWN: Address = Address::new(1, 1);
+const GCS: Address = Address::new(255, 190);
+
+/// The services' message ids, to draw from.
+fn ids() -> Vec<u32> {
+    Message::META.iter().map(|m| m.id).collect()
+}
+
+fn store() -> Vec<Param> {
+    (0..20u16)
+        .map(|i| Param {
+            name: Name::from(format!("P{i}").as_str()),
+            value: match i % 7 {
+                0 => Value::U8(i as u8),
+                1 => Value::I8(-(i as i8)),
+                2 => Value::U16(i * 1000),
+                3 => Value::I16(-(i as i16) * 1000),
+                4 => Value::U32(u32::from(i) << 20),
+                5 => Value::I32(-(i32::from(i) << 20)),
+                _ => Value::F32(f32::from(i) / 3.0),
+            },
+        })
+        .collect()
+}
+
+struct Bytes<'a>(&'a [u8]);
+
+impl Bytes<'_> {
+    fn byte(&mut self) -> Option<u8> {
+        let (&b, rest) = self.0.split_first()?;
+        self.0 = rest;
+        Some(b)
+    }
+    fn take(&mut self, n: usize) -> &[u8] {
+        let n = n.min(self.0.len());
+        let (a, b) = self.0.split_at(n);
+        self.0 = b;
+        a
+    }
+}
+
+pub fn check_servers(data: &[u8]) {
+    let ids = ids();
+    let mut input = Bytes(data);
+    let mut params = store();
+    let types: Vec<_> = params.iter().map(|p| p.value.param_type()).collect();
+    let encoding = if data.first().is_some_and(|b| b & 1 == 1) {
+        Encoding::CCast
+    } else {
+        Encoding::Bytewise
+    };
+    let mut param_server: param::Server<4> = param::Server::new(param::ServerConfig {
+        own: OWN,
+        encoding,
+        list_interval_us: 0,
+    });
+    let mut command_server: command::Server<3> =
+        command::Server::new(command::ServerConfig::new(OWN));
+    let mut param_client: param::Client<1> = param::Client::new(param::ClientConfig::new(GCS), OWN);
+    let mut command_client: command::Client<2> =
+        command::Client::new(command::ClientConfig::new(GCS));
+    let mut now: u64 = 0;
+    // Commands the server handed out and not yet answered: (from, id).
+    let mut asked: Vec<(Address, MavCmd)> = Vec::new();
+    // Every (sender, command id) the server ever heard.
+    let mut heard: Vec<(Address, MavCmd)> = Vec::new();
+    while let Some(op) = input.byte() {
+        match op % 8 {
+            0..=3 => {
+                let Some(which) = input.byte() else { break };
+                let id = ids[usize::from(which) % ids.len()];
+                let from = Address::new(input.byte().unwrap_or(0), input.byte().unwrap_or(0));
+                let len = usize::from(input.byte().unwrap_or(0));
+                let payload = input.take(len).to_vec();
+                let Ok(msg) = Message::decode(id, &payload) else {
+                    continue;
+                };
+                param_server.handle(&mut params[..], now, from, &msg);
+                match command_server.handle(now, from, &msg) {
+                    Some(Request::Run { from, command }) => {
+                        asked.push((from, command.command));
+                        heard.push((from, command.command));
+                    }
+                    Some(Request::Cancel { from, command }) => {
+                        assert!(
+                            heard.contains(&(from, command)),
+                            "a cancel for a command never run"
+                        );
+                    }
+                    None => {}
+                }
+                if let Message::CommandLong(m) = &msg {
+                    heard.push((from, m.command));
+                }
+                if let Message::CommandInt(m) = &msg {
+                    heard.push((from, m.command));
+                }
+                let _ = param_client.handle(now, from, &msg);
+                command_client.handle(now, from, &msg);
+            }
+            4 => now += u64::from(input.byte().unwrap_or(0)) * 10_000,
+            5 => {
+                if !asked.is_empty() {
+                    let i = usize::from(input.byte().unwrap_or(0)) % asked.len();
+                    let (from, cmd) = asked[i];
+                    let result = MavResult::from_raw(input.byte().unwrap_or(0) % 9);
+                    command_server.respond(now, from, cmd, Ack::new(result));
+                    if result != MavResult::InProgress {
+                        asked.remove(i);
+                    }
+                }
+            }
+            6 => {
+                let which = input.byte().unwrap_or(0);
+                let name = Name::from(format!("P{}", which % 24).as_str());
+                let _ = match which % 4 {
+                    0 => param_client.list(),
+                    1 => param_client.read(name),
+                    2 => param_client.read_index(u16::from(which)),
+                    _ => param_client.set(name, Value::F32(f32::from(which))),
+                };
+            }
+            _ => {
+                let cmd = MavCmd::from_raw(u16::from(input.byte().unwrap_or(0)));
+                let _ = command_client.send(
+                    now,
+                    OWN,
+                    command::Command::long(cmd, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                );
+            }
+        }
+        // Everything each one has to send now, within reason.
+        for _ in 0..10_000 {
+            let Some(m) = param_server.poll_transmit(&params[..], now) else {
+                break;
+            };
+            let Message::ParamValue(v) = m else {
+                panic!("the parameter server sent {m:?}")
+            };
+            assert_eq!(v.param_count, params.count());
+            let p = params[usize::from(v.param_index)];
+            assert_eq!(v.param_id, p.name);
+            let value =
+                Value::decode(v.param_value, v.param_type, encoding).expect("a 32-bit type");
+            assert!(value.same(p.value), "{value:?} sent for {p:?}");
+        }
+        for (p, ty) in params.iter().zip(&types) {
+            assert_eq!(p.value.param_type(), *ty, "a set changed {}'s type", p.name);
+        }
+        for _ in 0..10_000 {
+            let Some(m) = command_server.poll_transmit(now) else {
+                break;
+            };
+            let Message::CommandAck(a) = m else {
+                panic!("the command server sent {m:?}")
+            };
+            let to = Address::new(a.target_system, a.target_component);
+            assert!(
+                heard.contains(&(to, a.command)),
+                "an ACK nobody asked for: {a:?}"
+            );
+        }
+        let mut sent = 0;
+        while param_client.poll_transmit(now).is_some()
+            || command_client.poll_transmit(now).is_some()
+        {
+            sent += 1;
+            assert!(sent < 100, "a client keeps sending at one instant");
+        }
+        while let Some(e) = param_client.poll_event() {
+            if let param::Event::Listed { count, missing } = e {
+                assert!(missing <= count);
+            }
+        }
+        while command_client.poll_event().is_some() {}
+        // The clients' wake-ups are in the future, or now.
+        let _ = (param_client.poll_timeout(), command_client.poll_timeout());
+    }
+}
