@@ -100,12 +100,15 @@ pub enum Command {
     /// Parameters of a vehicle: list, get, set.
     #[command(subcommand)]
     Param(crate::mavlink_services::ParamCommand),
+    /// Missions, geofences and rally points of a vehicle: upload, download.
+    #[command(subcommand)]
+    Mission(crate::mavlink_services::MissionCommand),
     /// Send a command (COMMAND_LONG, or COMMAND_INT with --int), retrying, and print its
     /// answer. Exit 0 on ACCEPTED, 1 on another result, 2 when nothing answered.
     #[command(name = "command")]
     Cmd(crate::mavlink_services::CommandArgs),
-    /// A software vehicle: HEARTBEAT, parameters and commands on every endpoint, for testing
-    /// ground software. Prints `ready` once every endpoint is open.
+    /// A software vehicle: HEARTBEAT, parameters, missions and commands on every endpoint, for
+    /// testing ground software. Prints `ready` once every endpoint is open.
     Vehicle(crate::mavlink_services::VehicleArgs),
     /// Per source: message rates and sequence loss of a .tlog; optionally a plot of message
     /// rates over time.
@@ -305,6 +308,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             file,
         } => crate::mavlink_stats::run(&dialect, plot.as_deref(), &file),
         Command::Param(command) => crate::mavlink_services::param(command),
+        Command::Mission(command) => crate::mavlink_services::mission(command),
         Command::Cmd(args) => crate::mavlink_services::command(args),
         Command::Vehicle(args) => crate::mavlink_services::vehicle(args),
     }

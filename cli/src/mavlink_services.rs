@@ -1,5 +1,5 @@
-//! `ferrolink mavlink param|command|vehicle`: the microservices from the command line, and the
-//! software vehicle that serves them.
+//! `ferrolink mavlink param|mission|command|vehicle`: the microservices from the command line,
+//! and the software vehicle that serves them.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -9,12 +9,12 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use clap::{Args, Subcommand, ValueEnum};
-use ferrolink_io::mavlink::paramfile;
 use ferrolink_io::mavlink::services::{self, Peer, Remote};
+use ferrolink_io::mavlink::{missionfile, paramfile};
 use ferrolink_io::mavlink::{vehicle, Connection};
 use ferrolink_runtime::mavlink::service::command::Command as MavCommand;
 use ferrolink_runtime::mavlink::service::messages::{
-    MavAutopilot, MavCmd, MavFrame, MavResult, MavType,
+    MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavMissionType, MavResult, MavType,
 };
 use ferrolink_runtime::mavlink::service::param::{Received, Value};
 use ferrolink_runtime::mavlink::service::Address;
@@ -80,6 +80,55 @@ pub enum ParamCommand {
         /// read first].
         #[arg(long = "type", value_name = "TYPE")]
         ty: Option<String>,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+}
+
+/// The mission types, as `--type` names them.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum MissionKind {
+    Mission,
+    Fence,
+    Rally,
+}
+
+impl MissionKind {
+    fn mav(self) -> MavMissionType {
+        match self {
+            MissionKind::Mission => MavMissionType::Mission,
+            MissionKind::Fence => MavMissionType::Fence,
+            MissionKind::Rally => MavMissionType::Rally,
+        }
+    }
+}
+
+#[derive(Subcommand)]
+pub enum MissionCommand {
+    /// Upload a mission, geofence or rally points from a QGC WPL 110 file, or a QGroundControl
+    /// .plan (FILE ending so). Exit 0 once the vehicle accepts it.
+    Upload {
+        /// The connection.
+        uri: String,
+        /// The file.
+        file: PathBuf,
+        /// What to upload.
+        #[arg(long = "type", value_enum, default_value = "mission")]
+        kind: MissionKind,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+    /// Download a mission, geofence or rally points as QGC WPL 110 (or .plan when --out ends
+    /// so), to --out or stdout.
+    Download {
+        /// The connection.
+        uri: String,
+        /// What to download.
+        #[arg(long = "type", value_enum, default_value = "mission")]
+        kind: MissionKind,
+        /// Write it here instead of stdout.
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
         #[command(flatten)]
         target: TargetArg,
     },
@@ -309,6 +358,107 @@ fn unknown(name: &str, peer: Peer) -> Box<dyn std::error::Error> {
         peer.address.system, peer.address.component
     )
     .into()
+}
+
+/// A progress bar on stderr when it is a terminal (hidden otherwise).
+fn progress_bar(what: &'static str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(0);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len}") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(what);
+    bar
+}
+
+fn is_plan(path: &std::path::Path) -> bool {
+    path.extension().is_some_and(|e| e == "plan")
+}
+
+pub fn mission(command: MissionCommand) -> Result<ExitCode> {
+    match command {
+        MissionCommand::Upload {
+            uri,
+            file,
+            kind,
+            target,
+        } => {
+            let text = std::fs::read_to_string(&file)
+                .map_err(|e| format!("{}: cannot read it: {e}", file.display()))?;
+            let parsed = if is_plan(&file) {
+                missionfile::parse_plan(&text, kind.mav())
+            } else {
+                missionfile::parse_wpl(&text)
+            };
+            let items = parsed.map_err(|errors| {
+                errors
+                    .iter()
+                    .map(|e| format!("{}: {e}", file.display()))
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            })?;
+            let mut link = open(&uri)?;
+            let peer = find_target(&mut link, &uri, target)?;
+            let mut remote = Remote::new(&mut link, peer);
+            let bar = progress_bar("upload");
+            bar.set_length(items.len() as u64);
+            let result = remote.upload_mission(kind.mav(), &items, |done, _| {
+                bar.set_position(u64::from(done));
+            })?;
+            bar.finish_and_clear();
+            match result {
+                Some(MavMissionResult::MavMissionAccepted) => {
+                    eprintln!("{} items accepted", items.len());
+                    Ok(ExitCode::SUCCESS)
+                }
+                Some(other) => {
+                    eprintln!("the vehicle refused the upload: {other:?}");
+                    Ok(ExitCode::FAILURE)
+                }
+                None => {
+                    eprintln!("the vehicle stopped answering; it keeps its old items");
+                    Ok(ExitCode::FAILURE)
+                }
+            }
+        }
+        MissionCommand::Download {
+            uri,
+            kind,
+            out,
+            target,
+        } => {
+            let mut link = open(&uri)?;
+            let peer = find_target(&mut link, &uri, target)?;
+            let mut remote = Remote::new(&mut link, peer);
+            let bar = progress_bar("download");
+            let items = remote.download_mission(kind.mav(), |done, all| {
+                bar.set_length(u64::from(all));
+                bar.set_position(u64::from(done));
+            })?;
+            bar.finish_and_clear();
+            let Some(items) = items else {
+                eprintln!("the vehicle stopped answering");
+                return Ok(ExitCode::FAILURE);
+            };
+            let text = match &out {
+                Some(path) if is_plan(path) => missionfile::write_plan(&items, kind.mav()),
+                _ => missionfile::write_wpl(&items),
+            };
+            match &out {
+                Some(path) => std::fs::write(path, text)
+                    .map_err(|e| format!("{}: cannot write it: {e}", path.display()))?,
+                None => {
+                    let mut stdout = std::io::stdout().lock();
+                    if let Err(e) = stdout.write_all(text.as_bytes()) {
+                        if e.kind() != std::io::ErrorKind::BrokenPipe {
+                            return Err(e.into());
+                        }
+                    }
+                }
+            }
+            eprintln!("{} items", items.len());
+            Ok(ExitCode::SUCCESS)
+        }
+    }
 }
 
 pub fn command(args: CommandArgs) -> Result<ExitCode> {

@@ -16,10 +16,18 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
   our_command        ``ferrolink mavlink command`` arms a vehicle built from MAVSDK's
                      ActionServer plugin; MAVSDK's server reports the arming. A command
                      MAVSDK does not answer exits 2 after the retries.
+  mavsdk_mission     MAVSDK's MissionRaw plugin uploads a mission to our vehicle, downloads
+                     it back item for item; our CLI downloads the same mission.
+  our_mission        ``ferrolink mavlink mission upload`` (a WPL file) to a vehicle built from
+                     MAVSDK's MissionRawServer, which reports the mission item for item;
+                     ``mission download`` gets it back.
   lossy_params       both ``param list`` directions again through a UDP relay that loses 20 %
                      of datagrams, repeats 5 % and delays some past later ones (seeded):
                      MAVSDK lists our vehicle, and we list MAVSDK's ParamServer, every value
                      exact.
+  lossy_mission      a 100-item mission up and down through the relay, both directions:
+                     MAVSDK against our vehicle, and our CLI against MAVSDK's server (which
+                     stores a repeated item twice, so that direction's relay only loses).
 
 Known MAVSDK 4.1 quirk taken into account: ``get_all_params`` leaves out the unsigned integer
 types (UINT8, UINT16 and UINT32), so MAVSDK's listing is compared on the signed ones and the
@@ -78,6 +86,66 @@ PARAMS = [
 ]
 INTS = {n: v for n, t, v in PARAMS if t != 9}
 FLOATS = {n: f32(v) for n, t, v in PARAMS if t == 9}
+
+
+def mission_spec(n=5):
+    """(seq, frame, command, current, autocontinue, p1, p2, p3, p4, x, y, z) for n items."""
+    nan = float("nan")
+    lat, lon = 473977420, 85455940
+    items = [(0, 6, 22, 1, 1, 0.0, 0.0, 0.0, nan, lat, lon, 10.0)]
+    for i in range(1, n):
+        items.append((i, 6, 16, 0, 1, 0.0, 2.0, 0.0, nan, lat + 97 * i, lon - 31 * i, f32(10.0 + i / 8)))
+    return items
+
+
+def same_item(want, got):
+    """want: a spec tuple; got: an object with MAVSDK's MissionItem fields."""
+    keys = ("seq", "frame", "command", "current", "autocontinue", "param1", "param2",
+            "param3", "param4", "x", "y", "z")
+    for k, w in zip(keys, want):
+        g = getattr(got, k)
+        if isinstance(w, float) and w != w:
+            if g == g:
+                return "%s is %r, not NaN" % (k, g)
+        elif g != w:
+            return "%s is %r, not %r" % (k, g, w)
+    return ""
+
+
+def compare_items(spec, items, who):
+    if len(items) != len(spec):
+        raise CheckFailed("%s: %d items, not %d" % (who, len(items), len(spec)))
+    for want, got in zip(spec, items):
+        diff = same_item(want, got)
+        if diff:
+            raise CheckFailed("%s: item %d: %s" % (who, want[0], diff))
+
+
+class WplItem:
+    """An item of a WPL file, with MAVSDK's MissionItem field names (x, y as integers)."""
+
+    def __init__(self, line):
+        f = line.split("\t")
+        self.seq, self.current, self.frame, self.command = (int(v) for v in f[:4])
+        self.param1, self.param2, self.param3, self.param4 = (float(v) for v in f[4:8])
+        self.x, self.y = (round(float(v) * 1e7) for v in f[8:10])
+        self.z = float(f[10])
+        self.autocontinue = int(f[11])
+
+
+def write_wpl(path, spec):
+    with open(path, "w") as f:
+        f.write("QGC WPL 110\n")
+        for (s, fr, c, cur, ac, p1, p2, p3, p4, x, y, z) in spec:
+            f.write("\t".join(str(v) for v in (s, cur, fr, c, p1, p2, p3, p4)) +
+                    "\t%.7f\t%.7f\t%r\t%d\n" % (x / 1e7, y / 1e7, z, ac))
+
+
+def read_wpl(text):
+    lines = text.strip().split("\n")
+    if lines[0] != "QGC WPL 110":
+        raise CheckFailed("not a WPL file: %r" % text[:80])
+    return [WplItem(l) for l in lines[1:]]
 
 
 def write_params(path):
@@ -433,12 +501,142 @@ async def check_lossy_params(args):
     return "; ".join(notes)
 
 
+async def mavsdk_mission_vehicle(url):
+    """A vehicle from MAVSDK's MissionRawServer: (mavsdk, incoming missions, tasks, keep)."""
+    from mavsdk.asyncio import Mavsdk, Configuration, ComponentType
+    from mavsdk.asyncio.plugins.mission_raw_server import MissionRawServerAsync
+    cfg = Configuration.create_with_component_type(ComponentType.AUTOPILOT)
+    cfg.system_id = 1
+    cfg.component_id = 1
+    mavsdk = Mavsdk(cfg)
+    await mavsdk.__aenter__()
+    await mavsdk.add_any_connection(url)
+    component = await mavsdk.server_component()
+    server = MissionRawServerAsync(component)
+    incoming = []
+
+    async def watch():
+        async for result, plan in server.subscribe_incoming_mission():
+            incoming.append((str(result), list(plan.mission_items)))
+    return mavsdk, incoming, [asyncio.ensure_future(watch())], [server]
+
+
+async def mavsdk_mission_round_trip(system, spec):
+    from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync, MissionItem
+    mission = MissionRawAsync(system)
+    items = [MissionItem(seq=s, frame=f, command=c, current=cur, autocontinue=ac,
+                         param1=p1, param2=p2, param3=p3, param4=p4, x=x, y=y, z=z,
+                         mission_type=0)
+             for (s, f, c, cur, ac, p1, p2, p3, p4, x, y, z) in spec]
+    t0 = time.monotonic()
+    await mission.upload_mission(items)
+    t1 = time.monotonic()
+    down = await mission.download_mission()
+    t2 = time.monotonic()
+    compare_items(spec, down, "MAVSDK's download")
+    return t1 - t0, t2 - t1
+
+
+async def check_mavsdk_mission(args):
+    port = free_udp_port()
+    vehicle = await start_vehicle(args, "px4", port)
+    spec = mission_spec(20)
+    try:
+        mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
+        try:
+            await mavsdk_mission_round_trip(system, spec)
+        finally:
+            await mavsdk.__aexit__(None, None, None)
+        rc, out, err = await ferrolink(args, "mission", "download", "udpin://%s:%d" % (HOST, port))
+        if rc != 0:
+            raise CheckFailed("mission download exited %d: %s" % (rc, err))
+        compare_items(spec, read_wpl(out), "our download of MAVSDK's upload")
+    finally:
+        await stop(vehicle)
+    return "%d items up and back with MAVSDK; our download matches" % len(spec)
+
+
+async def check_our_mission(args):
+    port = free_udp_port()
+    uri = "udpin://%s:%d" % (HOST, port)
+    spec = mission_spec(20)
+    wpl = os.path.join(args.workdir, "mission.waypoints")
+    write_wpl(wpl, spec)
+    mavsdk, incoming, tasks, keep = await mavsdk_mission_vehicle("udpout://%s:%d" % (HOST, port))
+    try:
+        rc, out, err = await ferrolink(args, "mission", "upload", uri, wpl)
+        if rc != 0:
+            raise CheckFailed("mission upload exited %d: %s" % (rc, err))
+        await asyncio.sleep(0.5)
+        if not incoming:
+            raise CheckFailed("MAVSDK's MissionRawServer reported no mission")
+        compare_items(spec, incoming[-1][1], "MAVSDK's server")
+        rc, out, err = await ferrolink(args, "mission", "download", uri)
+        if rc != 0:
+            raise CheckFailed("mission download exited %d: %s" % (rc, err))
+        compare_items(spec, read_wpl(out), "our download from MAVSDK's server")
+    finally:
+        await close_vehicle(mavsdk, tasks)
+    return "%d items up to MAVSDK's server (%s) and back" % (len(spec), incoming[-1][0])
+
+
+async def check_lossy_mission(args):
+    notes = []
+    spec = mission_spec(100)
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed + 2)
+    vehicle = await start_vehicle(args, "px4", relay.port, seconds=120)
+    try:
+        mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
+        try:
+            up, down = await mavsdk_mission_round_trip(system, spec)
+            notes.append("MAVSDK up %.1f s, down %.1f s to our vehicle" % (up, down))
+        finally:
+            await mavsdk.__aexit__(None, None, None)
+    finally:
+        await stop(vehicle)
+        relay.close()
+    # MAVSDK's MissionRawServer appends every MISSION_ITEM_INT it receives, a repeated frame
+    # too, so a link that repeats frames corrupts what it receives whoever the client is: this
+    # direction's relay loses 20 % and neither repeats nor reorders.
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed + 3, dup=0.0, reorder=0.0)
+    uri = "udpin://%s:%d" % (HOST, port)
+    wpl = os.path.join(args.workdir, "lossy.waypoints")
+    write_wpl(wpl, spec)
+    mavsdk, incoming, tasks, keep = await mavsdk_mission_vehicle("udpout://%s:%d" % (HOST, relay.port))
+    try:
+        t0 = time.monotonic()
+        rc, out, err = await ferrolink(args, "mission", "upload", uri, wpl, timeout=120)
+        t1 = time.monotonic()
+        if rc != 0:
+            raise CheckFailed("mission upload through the relay exited %d: %s" % (rc, err))
+        await asyncio.sleep(0.5)
+        if not incoming:
+            raise CheckFailed("MAVSDK's server reported no mission")
+        compare_items(spec, incoming[-1][1], "MAVSDK's server through the relay")
+        t2 = time.monotonic()
+        rc, out, err = await ferrolink(args, "mission", "download", uri, timeout=120)
+        t3 = time.monotonic()
+        if rc != 0:
+            raise CheckFailed("mission download through the relay exited %d: %s" % (rc, err))
+        compare_items(spec, read_wpl(out), "our download through the relay")
+        notes.append("we: up %.1f s, down %.1f s to MAVSDK's server (%s)" % (t1 - t0, t3 - t2, relay.stats))
+    finally:
+        await close_vehicle(mavsdk, tasks)
+        relay.close()
+    return "; ".join(notes)
+
+
 CHECKS = {
     "mavsdk_params": check_mavsdk_params,
     "mavsdk_action": check_mavsdk_action,
     "our_params": check_our_params,
     "our_command": check_our_command,
+    "mavsdk_mission": check_mavsdk_mission,
+    "our_mission": check_our_mission,
     "lossy_params": check_lossy_params,
+    "lossy_mission": check_lossy_mission,
 }
 
 

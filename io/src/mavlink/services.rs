@@ -23,6 +23,8 @@ use ferrolink_runtime::mavlink::service::command::{self, Ack, Command};
 use ferrolink_runtime::mavlink::service::messages::{
     Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType, Message,
 };
+use ferrolink_runtime::mavlink::service::messages::{MavMissionResult, MavMissionType};
+use ferrolink_runtime::mavlink::service::mission::{self, Item};
 use ferrolink_runtime::mavlink::service::param::{self, Encoding, Name, Received, Value};
 pub use ferrolink_runtime::mavlink::service::peers::Peer;
 use ferrolink_runtime::mavlink::service::peers::Peers;
@@ -129,6 +131,12 @@ pub struct Remote<'c> {
     pub command_config: command::ClientConfig,
     /// The parameter client's settings.
     pub param_config: param::ClientConfig,
+    /// The mission client's settings.
+    pub mission_config: mission::ClientConfig,
+    /// How many times a mission transfer is tried from the start when the target stops
+    /// answering midway (3): a server that gives up after a few lost frames (MAVSDK's does)
+    /// starts afresh.
+    pub mission_attempts: u8,
 }
 
 impl<'c> Remote<'c> {
@@ -143,6 +151,8 @@ impl<'c> Remote<'c> {
             encoding: None,
             command_config: command::ClientConfig::new(own),
             param_config: param::ClientConfig::new(own),
+            mission_config: mission::ClientConfig::new(own),
+            mission_attempts: 3,
         }
     }
 
@@ -294,6 +304,121 @@ impl<'c> Remote<'c> {
         match self.run_param(&mut client, None, |_| {})? {
             Some(param::Event::Set(r)) => Ok(r),
             _ => Ok(None),
+        }
+    }
+
+    /// Runs a mission operation to its end; `progress` sees (items done, items in all).
+    fn run_mission(
+        &mut self,
+        client: &mut mission::Client,
+        items: &mut Items,
+        mut progress: impl FnMut(u16, u16),
+    ) -> io::Result<mission::Event> {
+        let mut done = 0;
+        loop {
+            let now = self.now_us();
+            while let Some(m) = client.poll_transmit(items, now) {
+                if let Message::MissionItemInt(i) = &m {
+                    if i.seq >= done {
+                        done = i.seq + 1;
+                        progress(done, items.0.len() as u16);
+                    }
+                }
+                self.send(&m)?;
+            }
+            if let Some(e) = client.poll_event() {
+                // The download's final ACK goes out before this returns.
+                while let Some(m) = client.poll_transmit(items, now) {
+                    self.send(&m)?;
+                }
+                return Ok(e);
+            }
+            let until = client
+                .poll_timeout()
+                .unwrap_or(now + 1_000_000)
+                .max(now + 1);
+            if let Some((from, msg)) = self.next(until)? {
+                client.handle(items, self.now_us(), from, &msg);
+                if let Message::MissionItemInt(i) = &msg {
+                    progress(i.seq + 1, items.0.len() as u16);
+                }
+            }
+        }
+    }
+
+    /// Uploads `items` as the target's `kind` (mission, fence or rally points); the target's
+    /// answer, `None` when it stopped answering every attempt. `progress` sees (items sent,
+    /// items in all).
+    pub fn upload_mission(
+        &mut self,
+        kind: MavMissionType,
+        items: &[Item],
+        mut progress: impl FnMut(u16, u16),
+    ) -> io::Result<Option<MavMissionResult>> {
+        let count = u16::try_from(items.len()).map_err(|_| {
+            io::Error::other(format!(
+                "{} items: a mission holds at most 65535",
+                items.len()
+            ))
+        })?;
+        let mut items = Items(items.to_vec());
+        let mut result = None;
+        for _ in 0..self.mission_attempts.max(1) {
+            let mut client = mission::Client::new(self.mission_config, self.target.address);
+            let _ = client.upload(kind, count);
+            result = match self.run_mission(&mut client, &mut items, &mut progress)? {
+                mission::Event::Uploaded(result) => result,
+                _ => None,
+            };
+            if !matches!(
+                result,
+                None | Some(MavMissionResult::MavMissionOperationCancelled)
+            ) {
+                break;
+            }
+        }
+        Ok(result)
+    }
+
+    /// Downloads the target's `kind`; `None` when it stopped answering every attempt.
+    /// `progress` sees (items received, items in all).
+    pub fn download_mission(
+        &mut self,
+        kind: MavMissionType,
+        mut progress: impl FnMut(u16, u16),
+    ) -> io::Result<Option<Vec<Item>>> {
+        for _ in 0..self.mission_attempts.max(1) {
+            let mut client = mission::Client::new(self.mission_config, self.target.address);
+            let _ = client.download(kind);
+            let mut items = Items(Vec::new());
+            if let mission::Event::Downloaded(Some(_)) =
+                self.run_mission(&mut client, &mut items, &mut progress)?
+            {
+                return Ok(Some(items.0));
+            }
+        }
+        Ok(None)
+    }
+}
+
+/// Mission items in a `Vec`, as the mission client reads and fills them.
+#[derive(Debug, Default)]
+pub struct Items(pub Vec<Item>);
+
+impl mission::Items for Items {
+    fn len(&self) -> u16 {
+        u16::try_from(self.0.len()).unwrap_or(u16::MAX)
+    }
+    fn get(&self, seq: u16) -> Option<Item> {
+        self.0.get(usize::from(seq)).copied()
+    }
+    fn reset(&mut self, count: u16) -> bool {
+        self.0 = vec![Item::default(); usize::from(count)];
+        true
+    }
+    fn put(&mut self, seq: u16, item: Item) {
+        if let Some(slot) = self.0.get_mut(usize::from(seq)) {
+            *slot = item;
         }
     }
 }

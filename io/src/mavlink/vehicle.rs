@@ -1,5 +1,6 @@
-//! A software vehicle: HEARTBEAT, parameters and commands served on MAVLink endpoints, for
-//! testing ground software the way people use a simulator.
+//! A software vehicle: HEARTBEAT, parameters, missions (with geofence and rally points) and
+//! commands served on MAVLink endpoints, for testing ground software the way people use a
+//! simulator.
 //!
 //! Each endpoint has a thread of its own with its own parameter and command servers (answers
 //! go back where the request came from); the parameters and the vehicle's state are shared.
@@ -21,8 +22,10 @@ use std::time::{Duration, Instant};
 
 use ferrolink_runtime::mavlink::service::command::{self, Ack, Request};
 use ferrolink_runtime::mavlink::service::messages::{
-    Heartbeat, MavAutopilot, MavCmd, MavModeFlag, MavResult, MavState, MavType, Message,
+    Heartbeat, MavAutopilot, MavCmd, MavMissionType, MavModeFlag, MavResult, MavState, MavType,
+    Message,
 };
+use ferrolink_runtime::mavlink::service::mission::{self, Item};
 use ferrolink_runtime::mavlink::service::param::{self, Encoding, Param};
 use ferrolink_runtime::mavlink::service::Address;
 use ferrolink_runtime::mavlink::MessageMeta;
@@ -47,7 +50,72 @@ pub struct Config {
 
 struct Shared {
     params: Vec<Param>,
+    missions: Missions,
     armed: bool,
+}
+
+/// The mission, the geofence and the rally points, and the current mission item.
+#[derive(Debug, Default)]
+struct Missions {
+    held: [Vec<Item>; 3],
+    current: u16,
+}
+
+fn slot(kind: MavMissionType) -> usize {
+    match kind {
+        MavMissionType::Fence => 1,
+        MavMissionType::Rally => 2,
+        _ => 0,
+    }
+}
+
+/// The shared missions with one endpoint's upload beside them: a failed upload leaves them
+/// as they were.
+struct MissionStore<'a> {
+    held: &'a mut Missions,
+    staged: &'a mut [Vec<Item>; 3],
+}
+
+impl mission::Store for MissionStore<'_> {
+    fn count(&self, kind: MavMissionType) -> u16 {
+        self.held.held[slot(kind)].len() as u16
+    }
+    fn get(&self, kind: MavMissionType, seq: u16) -> Option<Item> {
+        self.held.held[slot(kind)].get(usize::from(seq)).copied()
+    }
+    fn begin(&mut self, kind: MavMissionType, count: u16) -> bool {
+        self.staged[slot(kind)] = vec![Item::default(); usize::from(count)];
+        true
+    }
+    fn put(&mut self, kind: MavMissionType, seq: u16, item: Item) {
+        if let Some(s) = self.staged[slot(kind)].get_mut(usize::from(seq)) {
+            *s = item;
+        }
+    }
+    fn commit(&mut self, kind: MavMissionType) {
+        self.held.held[slot(kind)] = std::mem::take(&mut self.staged[slot(kind)]);
+        if kind == MavMissionType::Mission {
+            self.held.current = 0;
+        }
+    }
+    fn clear(&mut self, kind: MavMissionType) {
+        if kind == MavMissionType::All {
+            self.held.held = Default::default();
+        } else {
+            self.held.held[slot(kind)].clear();
+        }
+        self.held.current = 0;
+    }
+    fn current(&self) -> u16 {
+        self.held.current
+    }
+    fn set_current(&mut self, seq: u16) -> bool {
+        let ok = usize::from(seq) < self.held.held[0].len();
+        if ok {
+            self.held.current = seq;
+        }
+        ok
+    }
 }
 
 /// How long the calibration command runs.
@@ -72,6 +140,7 @@ pub fn run(
     }
     let shared = Arc::new(Mutex::new(Shared {
         params: config.params.clone(),
+        missions: Missions::default(),
         armed: false,
     }));
     ready();
@@ -111,6 +180,8 @@ fn serve(
         list_interval_us: 0,
     });
     let mut commands: command::Server<8> = command::Server::new(command::ServerConfig::new(own));
+    let mut missions = mission::Server::new(mission::ServerConfig::new(own));
+    let mut staged: [Vec<Item>; 3] = Default::default();
     let mut running: Vec<Running> = Vec::new();
     let start = Instant::now();
     let now_us = || start.elapsed().as_micros() as u64;
@@ -140,11 +211,18 @@ fn serve(
         });
         let t = now_us();
         {
-            let state = lock(shared);
+            let mut state = lock(shared);
             while let Some(m) = params.poll_transmit(&state.params[..], t) {
                 if link.send_dialect(&m).is_err() {
                     break;
                 }
+            }
+            let store = MissionStore {
+                held: &mut state.missions,
+                staged: &mut staged,
+            };
+            while let Some(m) = missions.poll_transmit(&store, t) {
+                let _ = link.send_dialect(&m);
             }
         }
         while let Some(m) = commands.poll_transmit(t) {
@@ -158,8 +236,12 @@ fn serve(
                 .min(r.started + CALIBRATION / 2)
                 .min(r.started + CALIBRATION);
         }
-        if params.poll_timeout().is_some_and(|d| d <= t) {
-            wake = now;
+        for deadline in [params.poll_timeout(), missions.poll_timeout()]
+            .into_iter()
+            .flatten()
+        {
+            let at = start + Duration::from_micros(deadline);
+            wake = wake.min(at.max(now));
         }
         let frame = match link.recv(wake.saturating_duration_since(Instant::now())) {
             Ok(Some(frame)) => frame,
@@ -172,7 +254,15 @@ fn serve(
         let h = frame.header();
         let from = Address::new(h.sysid, h.compid);
         let t = now_us();
-        params.handle(&mut lock(shared).params[..], t, from, &msg);
+        {
+            let mut state = lock(shared);
+            params.handle(&mut state.params[..], t, from, &msg);
+            let mut store = MissionStore {
+                held: &mut state.missions,
+                staged: &mut staged,
+            };
+            missions.handle(&mut store, t, from, &msg);
+        }
         match commands.handle(t, from, &msg) {
             Some(Request::Run { from, command }) => {
                 let answer = run_command(shared, command.command, command.params[0]);

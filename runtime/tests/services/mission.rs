@@ -386,3 +386,91 @@ proptest! {
         round_trip(seed, Faults::BAD_RADIO, n);
     }
 }
+
+/// An uploading client that goes back a step on a late copy of an old request and then
+/// ignores requests for later items, as MAVSDK 4.1's does. (Unlike MAVSDK's, it sends its last
+/// item again when no ACK comes, so that a lost ACK does not end the test.)
+struct Rewinder {
+    items: Vec<Item>,
+    next: u16,
+    asked: bool,
+    due: Option<u16>,
+    count_at: u64,
+    result: Option<MavMissionResult>,
+}
+
+impl Node for Rewinder {
+    fn address(&self) -> Address {
+        GCS
+    }
+    fn handle(&mut self, _now: u64, _from: Address, msg: &Message) {
+        match msg {
+            Message::MissionRequestInt(r) if r.seq <= self.next => {
+                self.asked = true;
+                self.next = r.seq;
+                self.due = Some(r.seq);
+            }
+            Message::MissionAck(a) => self.result = Some(a.r#type),
+            _ => {}
+        }
+    }
+    fn poll_transmit(&mut self, now: u64) -> Option<Message> {
+        if self.result.is_some() {
+            return None;
+        }
+        if !self.asked && now >= self.count_at {
+            self.count_at = now + 100_000;
+            return Some(Message::MissionCount(MissionCount {
+                target_system: 1,
+                target_component: 1,
+                count: self.items.len() as u16,
+                mission_type: MavMissionType::Mission,
+            }));
+        }
+        let last = self.items.len() as u16 - 1;
+        if self.due.is_none() && self.next == last + 1 && now >= self.count_at {
+            self.due = Some(last);
+        }
+        let seq = self.due.take()?;
+        self.next = seq + 1;
+        self.count_at = now + 200_000;
+        let it = self.items[usize::from(seq)];
+        Some(Message::MissionItemInt(MissionItemInt {
+            target_system: 1,
+            target_component: 1,
+            seq,
+            frame: it.frame,
+            command: it.command,
+            current: it.current,
+            autocontinue: it.autocontinue,
+            param1: it.params[0],
+            param2: it.params[1],
+            param3: it.params[2],
+            param4: it.params[3],
+            x: it.x,
+            y: it.y,
+            z: it.z,
+            mission_type: MavMissionType::Mission,
+        }))
+    }
+    fn poll_timeout(&self) -> Option<u64> {
+        Some(self.count_at)
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+    /// A client that goes back a step on a late request copy (and then ignores requests for
+    /// later items) is put back in step by the server: the upload completes, item for item.
+    #[test]
+    fn a_client_that_goes_back_a_step_is_put_back_in_step(seed in any::<u64>()) {
+        let items = plan(100, 0);
+        let mut client = Rewinder { items: items.clone(), next: 0, asked: false, due: None, count_at: 0, result: None };
+        let (_, mut vehicle) = pair();
+        let mut sim = Sim::new(seed, Faults::BAD_RADIO);
+        let done = sim.run(&mut client, &mut vehicle, 600_000_000, |c, _| c.result.is_some());
+        prop_assert!(done, "stuck");
+        prop_assert_eq!(client.result, Some(MavMissionResult::MavMissionAccepted));
+        prop_assert!(same(&vehicle.store.held[0], &items));
+    }
+}

@@ -506,7 +506,8 @@ impl Client {
                     last_sent: true,
                 };
             }
-            self.sent_us = Some(now_us);
+            // Not timed: the next request may be the server's own retry, late by its timeout.
+            self.sent_us = None;
             self.deadline = Some(now_us.saturating_add(self.timeout_us()));
             return Some(item.to_int(seq, to, kind));
         }
@@ -640,6 +641,13 @@ struct Upload {
     sent_us: Option<u64>,
     /// The last item's arrival (or the count's).
     heard_us: u64,
+    /// Where the client seems to stand, when it is behind: the item after the last copy of an
+    /// old item it sent. Requests walk it forward from there (see [`Server::poll_transmit`]).
+    behind: Option<u16>,
+    /// Ask for `behind` at once (a copy just came while walking).
+    walk_now: bool,
+    /// Probes since the last new item: each reaches one further back.
+    probes: u8,
 }
 
 /// An answer the server owes.
@@ -666,6 +674,9 @@ pub struct Server {
     /// item and to tell a late copy of its count from a new upload.
     completed: Option<(Address, MavMissionType, u16, u64)>,
     replies: [Option<Reply>; 4],
+    /// Copies of the last upload's final ACK still to send, and when the next goes.
+    ack_repeats: u8,
+    ack_at: u64,
     rtt: Rtt,
     dropped: usize,
 }
@@ -678,6 +689,8 @@ impl Server {
             upload: None,
             completed: None,
             replies: [None; 4],
+            ack_repeats: 0,
+            ack_at: 0,
             rtt: Rtt::default(),
             dropped: 0,
         }
@@ -740,6 +753,7 @@ impl Server {
                     }
                 }
                 self.completed = None;
+                self.ack_repeats = 0;
                 if c.count == 0 {
                     store.clear(c.mission_type);
                     self.upload = None;
@@ -769,6 +783,9 @@ impl Server {
                     request_due: true,
                     sent_us: None,
                     heard_us: now_us,
+                    behind: None,
+                    walk_now: false,
+                    probes: 0,
                 });
             }
             Message::MissionItemInt(m)
@@ -874,8 +891,19 @@ impl Server {
             return;
         };
         if seq < u.next {
-            // A copy of an item already taken (a repeated frame, or the answer to a repeated
-            // request): nothing to do. Asking again here would keep every later item doubled.
+            // A copy of an item already taken: a repeated frame, or the answer to a late copy
+            // of an old request. Nothing to do at once (asking again here would keep every
+            // later item doubled), but it tells where the client stands, should its answers
+            // stop: one that went back on that old request (MAVSDK 4.1's does) now ignores
+            // requests for anything but the item after it. While already walking it forward,
+            // the next step goes at once.
+            let walking = u.behind.is_some();
+            u.behind = (seq + 1 < u.next).then_some(seq + 1);
+            u.walk_now = walking;
+            if walking && u.behind.is_none() {
+                u.request_due = true;
+            }
+            self.upload = Some(u);
             return;
         }
         if seq > u.next {
@@ -890,12 +918,20 @@ impl Server {
         store.put(kind, seq, item);
         u.next += 1;
         u.tries = 0;
+        u.probes = 0;
+        u.behind = None;
+        u.walk_now = false;
         u.heard_us = now_us;
         if u.next == u.count {
             store.commit(kind);
             self.upload = None;
             self.completed = Some((from, kind, u.count, now_us));
             self.reply(Reply::Ack(from, kind, MavMissionResult::MavMissionAccepted));
+            // The final ACK goes twice more, a round trip apart: a client that does not send
+            // its last item again when the ACK is lost (MAVSDK's) would report a failure for an
+            // upload that was taken.
+            self.ack_repeats = 2;
+            self.ack_at = now_us.saturating_add(self.rtt.timeout_us(self.config.retry.timeout_us));
             return;
         }
         u.request_due = true;
@@ -908,8 +944,20 @@ impl Server {
             self.replies.rotate_left(1);
             return Some(self.render(store, r));
         }
+        if self.ack_repeats > 0 && now_us >= self.ack_at {
+            if let Some((to, kind, _, _)) = self.completed {
+                self.ack_repeats -= 1;
+                self.ack_at =
+                    now_us.saturating_add(self.rtt.timeout_us(self.config.retry.timeout_us));
+                return Some(self.render(
+                    store,
+                    Reply::Ack(to, kind, MavMissionResult::MavMissionAccepted),
+                ));
+            }
+            self.ack_repeats = 0;
+        }
         let mut u = self.upload?;
-        if !u.request_due && now_us < u.deadline {
+        if !u.request_due && !u.walk_now && now_us < u.deadline {
             return None;
         }
         let timeout_us = self.config.retry.timeout_us;
@@ -929,6 +977,29 @@ impl Server {
                 }));
             }
         }
+        // Which item to ask for: the one due, or, when the client seems behind, the item it
+        // waits to be asked for, walking it forward one answer at a time. When nothing tells
+        // where it stands, every third unanswered request asks for an earlier item (a probe),
+        // one further back each time; the copy it answers with tells.
+        let seq = if let (Some(behind), true) = (u.behind, u.walk_now || !u.request_due) {
+            behind
+        } else if !u.request_due && u.next > 0 && u.tries >= 2 && u.tries % 3 == 2 {
+            u.probes = u.probes.saturating_add(1);
+            u.next.saturating_sub(u16::from(u.probes))
+        } else {
+            u.next
+        };
+        if u.walk_now {
+            // A step of the walk: no retry, the deadline stands.
+            u.walk_now = false;
+            self.upload = Some(u);
+            return Some(Message::MissionRequestInt(MissionRequestInt {
+                target_system: u.from.system,
+                target_component: u.from.component,
+                seq,
+                mission_type: u.kind,
+            }));
+        }
         u.sent_us = self.rtt.time_sending(now_us, u.tries == 0);
         u.request_due = false;
         u.deadline = now_us.saturating_add(self.rtt.backoff_us(timeout_us, u.tries));
@@ -937,7 +1008,7 @@ impl Server {
         Some(Message::MissionRequestInt(MissionRequestInt {
             target_system: u.from.system,
             target_component: u.from.component,
-            seq: u.next,
+            seq,
             mission_type: u.kind,
         }))
     }
@@ -990,7 +1061,15 @@ impl Server {
         if self.replies[0].is_some() {
             return Some(0);
         }
-        self.upload
-            .map(|u| if u.request_due { 0 } else { u.deadline })
+        if self.ack_repeats > 0 {
+            return Some(self.ack_at);
+        }
+        self.upload.map(|u| {
+            if u.request_due || u.walk_now {
+                0
+            } else {
+                u.deadline
+            }
+        })
     }
 }

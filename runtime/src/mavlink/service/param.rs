@@ -263,10 +263,11 @@ pub enum Busy {
 pub struct ClientConfig {
     /// Our own address.
     pub own: Address,
-    /// Timeout and retries of each request: 1 s and 10 by default, so that a single value
-    /// crosses a link that loses a third of its round trips (0.36¹¹ ≈ 10⁻⁵ to fail). For a
-    /// list, the timeout is the longest gap in the stream, and `retries` the rounds of
-    /// re-requests with no new value before giving up.
+    /// The longest wait for an answer, and how many such waits of silence end an operation:
+    /// 1 s and 5 by default. Below the longest wait, the client asks again after the measured
+    /// round trip's timeout, doubled for each of the first two unanswered tries; it gives up
+    /// only after `timeout_us × (retries + 1)` without a new value, and at least twice as many
+    /// sendings ([`Retry::exhausted`]).
     pub retry: Retry,
     /// How many single-index re-requests may be outstanding at once while filling gaps.
     pub window: u16,
@@ -281,7 +282,7 @@ impl ClientConfig {
             own,
             retry: Retry {
                 timeout_us: 1_000_000,
-                retries: 10,
+                retries: 5,
             },
             window: 16,
             encoding: None,
@@ -322,6 +323,8 @@ pub struct Client<const W: usize> {
     held: u16,
     /// Sends of the current request so far, or rounds without progress while listing.
     tries: u8,
+    /// Since when no new value came (`None` before the first sending).
+    silent_since: Option<u64>,
     progress: bool,
     deadline: Option<u64>,
     event: Option<Event>,
@@ -346,6 +349,7 @@ impl<const W: usize> Client<W> {
             have: [0; W],
             held: 0,
             tries: 0,
+            silent_since: None,
             progress: false,
             deadline: None,
             event: None,
@@ -394,6 +398,7 @@ impl<const W: usize> Client<W> {
         }
         self.op = op;
         self.tries = 0;
+        self.silent_since = None;
         self.deadline = None;
         self.sent_us = None;
         self.reads = [None; 8];
@@ -507,6 +512,7 @@ impl<const W: usize> Client<W> {
                     }
                     if self.mark(received.index) {
                         self.progress = true;
+                        self.silent_since = Some(now_us);
                         if let Op::List { in_flight, .. } = &mut self.op {
                             *in_flight = in_flight.saturating_sub(1);
                         }
@@ -560,19 +566,20 @@ impl<const W: usize> Client<W> {
 
     /// The next request to send. Call until `None`.
     pub fn poll_transmit(&mut self, now_us: u64) -> Option<Message> {
-        let retries = self.config.retry.retries;
         let timeout_us = self.timeout_us();
         let due = self.deadline.is_none_or(|d| now_us >= d);
+        let silent_us = now_us.saturating_sub(*self.silent_since.get_or_insert(now_us));
+        let exhausted = self.config.retry.exhausted(silent_us, self.tries);
         let target = self.target;
         let msg = match self.op {
             Op::Idle => return None,
             Op::List { .. } => return self.poll_list(now_us),
             _ if !due => return None,
-            Op::Read { .. } if self.tries > retries => {
+            Op::Read { .. } if exhausted => {
                 self.finish(Event::Read(None));
                 return None;
             }
-            Op::Set { .. } if self.tries > retries => {
+            Op::Set { .. } if exhausted => {
                 self.finish(Event::Set(None));
                 return None;
             }
@@ -602,8 +609,8 @@ impl<const W: usize> Client<W> {
         else {
             return None;
         };
-        let retries = self.config.retry.retries;
         let timeout_us = self.timeout_us();
+        let silent_since = *self.silent_since.get_or_insert(now_us);
         if self.deadline.is_some_and(|d| now_us >= d) && !request_due {
             // The stream went quiet, or re-requests went unanswered.
             if self.progress {
@@ -612,7 +619,11 @@ impl<const W: usize> Client<W> {
                 self.tries = self.tries.saturating_add(1);
             }
             self.progress = false;
-            if self.tries > retries {
+            if self
+                .config
+                .retry
+                .exhausted(now_us.saturating_sub(silent_since), self.tries)
+            {
                 let c = count.unwrap_or(0);
                 let missing = c.saturating_sub(self.held);
                 self.finish(Event::Listed { count: c, missing });
