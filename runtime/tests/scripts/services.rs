@@ -4,7 +4,8 @@
 //! A script is a sequence of steps, each chosen by one byte:
 //!
 //! - a message (any payload bytes, of one of the services' message ids) from any address,
-//!   handed to the parameter and command servers and to a parameter and a command client;
+//!   handed to the parameter, command and mission servers and to a parameter, a command and a
+//!   mission client;
 //! - a clock step;
 //! - the application answering a command it was asked to run;
 //! - a client starting an operation (a list, a read, a set, a command).
@@ -16,10 +17,13 @@
 //!   it holds, and the count it has;
 //! - a set never changes a parameter's type;
 //! - every COMMAND_ACK goes to the sender of a command, for that command's id;
-//! - a client's list ends with no more missing values than the count.
+//! - a client's list ends with no more missing values than the count;
+//! - the mission server's store takes an upload only whole: every committed mission has the
+//!   count its upload announced, and items are put only in order, each once.
 
 use ferrolink_runtime::mavlink::service::command::{self, Ack, Request};
-use ferrolink_runtime::mavlink::service::messages::{MavCmd, MavResult, Message};
+use ferrolink_runtime::mavlink::service::messages::{MavCmd, MavMissionType, MavResult, Message};
+use ferrolink_runtime::mavlink::service::mission::{self, Item};
 use ferrolink_runtime::mavlink::service::param::{self, Encoding, Name, Param, Store, Value};
 use ferrolink_runtime::mavlink::service::Address;
 use ferrolink_runtime::mavlink::Dialect;
@@ -47,6 +51,51 @@ fn store() -> Vec<Param> {
             },
         })
         .collect()
+}
+
+/// A mission store that checks the server's use of it.
+#[derive(Default)]
+struct Checked {
+    held: Vec<Item>,
+    staged: Option<(u16, Vec<Item>)>,
+    current: u16,
+}
+
+impl mission::Store for Checked {
+    fn count(&self, _: MavMissionType) -> u16 {
+        self.held.len() as u16
+    }
+    fn get(&self, _: MavMissionType, seq: u16) -> Option<Item> {
+        self.held.get(usize::from(seq)).copied()
+    }
+    fn begin(&mut self, _: MavMissionType, count: u16) -> bool {
+        if count > 500 {
+            return false;
+        }
+        self.staged = Some((count, Vec::new()));
+        true
+    }
+    fn put(&mut self, _: MavMissionType, seq: u16, item: Item) {
+        let (count, items) = self.staged.as_mut().expect("an item without an upload");
+        assert_eq!(usize::from(seq), items.len(), "items out of order");
+        assert!(seq < *count, "an item past the count");
+        items.push(item);
+    }
+    fn commit(&mut self, _: MavMissionType) {
+        let (count, items) = self.staged.take().expect("a commit without an upload");
+        assert_eq!(items.len(), usize::from(count), "half a mission committed");
+        self.held = items;
+    }
+    fn clear(&mut self, _: MavMissionType) {
+        self.held.clear();
+    }
+    fn current(&self) -> u16 {
+        self.current
+    }
+    fn set_current(&mut self, seq: u16) -> bool {
+        self.current = seq;
+        true
+    }
 }
 
 struct Bytes<'a>(&'a [u8]);
@@ -85,6 +134,10 @@ pub fn check_servers(data: &[u8]) {
     let mut param_client: param::Client<1> = param::Client::new(param::ClientConfig::new(GCS), OWN);
     let mut command_client: command::Client<2> =
         command::Client::new(command::ClientConfig::new(GCS));
+    let mut mission_server = mission::Server::new(mission::ServerConfig::new(OWN));
+    let mut missions = Checked::default();
+    let mut mission_client = mission::Client::new(mission::ClientConfig::new(GCS), OWN);
+    let mut upload = MissionItems((0..7).map(|_| Item::default()).collect());
     let mut now: u64 = 0;
     // Commands the server handed out and not yet answered: (from, id).
     let mut asked: Vec<(Address, MavCmd)> = Vec::new();
@@ -123,6 +176,8 @@ pub fn check_servers(data: &[u8]) {
                 }
                 let _ = param_client.handle(now, from, &msg);
                 command_client.handle(now, from, &msg);
+                mission_server.handle(&mut missions, now, from, &msg);
+                mission_client.handle(&mut upload, now, from, &msg);
             }
             4 => now += u64::from(input.byte().unwrap_or(0)) * 10_000,
             5 => {
@@ -139,12 +194,17 @@ pub fn check_servers(data: &[u8]) {
             6 => {
                 let which = input.byte().unwrap_or(0);
                 let name = Name::from(format!("P{}", which % 24).as_str());
-                let _ = match which % 4 {
-                    0 => param_client.list(),
-                    1 => param_client.read(name),
-                    2 => param_client.read_index(u16::from(which)),
-                    _ => param_client.set(name, Value::F32(f32::from(which))),
-                };
+                // Refused while another operation runs: that is part of the script too.
+                match which % 8 {
+                    0 => drop(param_client.list()),
+                    1 => drop(param_client.read(name)),
+                    2 => drop(param_client.read_index(u16::from(which))),
+                    3 => drop(param_client.set(name, Value::F32(f32::from(which)))),
+                    4 => drop(mission_client.upload(MavMissionType::Mission, 7)),
+                    5 => drop(mission_client.download(MavMissionType::Fence)),
+                    6 => drop(mission_client.clear(MavMissionType::Rally)),
+                    _ => drop(mission_client.set_current(u16::from(which))),
+                }
             }
             _ => {
                 let cmd = MavCmd::from_raw(u16::from(input.byte().unwrap_or(0)));
@@ -199,7 +259,34 @@ pub fn check_servers(data: &[u8]) {
             }
         }
         while command_client.poll_event().is_some() {}
-        // The clients' wake-ups are in the future, or now.
-        let _ = (param_client.poll_timeout(), command_client.poll_timeout());
+        while mission_client.poll_event().is_some() {}
+        let _ = (
+            param_client.poll_timeout(),
+            command_client.poll_timeout(),
+            mission_client.poll_timeout(),
+            mission_server.poll_timeout(),
+        );
+    }
+}
+
+/// Mission items in a `Vec`, for the mission client.
+struct MissionItems(Vec<Item>);
+
+impl mission::Items for MissionItems {
+    fn len(&self) -> u16 {
+        self.0.len() as u16
+    }
+    fn get(&self, seq: u16) -> Option<Item> {
+        self.0.get(usize::from(seq)).copied()
+    }
+    fn reset(&mut self, count: u16) -> bool {
+        if count > 500 {
+            return false;
+        }
+        self.0 = vec![Item::default(); usize::from(count)];
+        true
+    }
+    fn put(&mut self, seq: u16, item: Item) {
+        self.0[usize::from(seq)] = item;
     }
 }
