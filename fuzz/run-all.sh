@@ -8,6 +8,8 @@
 #   FUZZ_JOBS=2 bash fuzz/run-all.sh 1200           # a campaign: 20 min each, two at a time
 #   FUZZ_MERGE=1 bash fuzz/run-all.sh 0             # minimize corpus/ + corpora/ into corpora/
 #
+# A target's extra libFuzzer flags (e.g. a tighter -max_len) live in options/TARGET.
+#
 # Needs a nightly toolchain and cargo-fuzz. The targets are built once, then their binaries run
 # directly, so editing the sources during a campaign changes nothing. Prints a table: runs,
 # coverage (edges), features, corpus size and the result per target; crash inputs land in
@@ -36,8 +38,10 @@ run_one() {
   local dirs=("corpus/$target")
   [ -d "corpora/$target" ] && dirs+=("corpora/$target")
   [ -d "seeds/$target" ] && dirs+=("seeds/$target")
+  local options=()
+  [ -f "options/$target" ] && read -r -a options <"options/$target"
   if [ "$seconds" -gt 0 ] && ! "$bin_dir/$target" -max_total_time="$seconds" -print_final_stats=1 \
-      -artifact_prefix="artifacts/$target/" "${dirs[@]}" >"logs/$target.log" 2>&1; then
+      "${options[@]}" -artifact_prefix="artifacts/$target/" "${dirs[@]}" >"logs/$target.log" 2>&1; then
     echo "CRASH" >"logs/$target.result"
     return
   fi
@@ -56,7 +60,9 @@ if [ -n "${FUZZ_MERGE:-}" ]; then
     fresh=$(mktemp -d)
     dirs=()
     for d in "corpora/$t" "corpus/$t"; do [ -d "$d" ] && dirs+=("$d"); done
-    "$bin_dir/$t" -set_cover_merge=1 "$fresh" "${dirs[@]}" >"logs/$t.merge.log" 2>&1
+    options=()
+    [ -f "options/$t" ] && read -r -a options <"options/$t"
+    "$bin_dir/$t" -set_cover_merge=1 "${options[@]}" "$fresh" "${dirs[@]}" >"logs/$t.merge.log" 2>&1
     rm -rf "corpora/$t"
     mkdir -p corpora
     mv "$fresh" "corpora/$t"
