@@ -24,7 +24,7 @@ use super::messages::{
     MissionCurrent, MissionItem, MissionItemInt, MissionRequestInt, MissionRequestList,
     MissionState,
 };
-use super::{command::scale, round_i32, Address, Retry, Rtt};
+use super::{command::scale, round_i32, Address, Busy, Retry, Rtt};
 
 /// One mission item, as MISSION_ITEM_INT carries it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -184,14 +184,6 @@ pub enum Event {
     CurrentSet(Option<u16>),
 }
 
-/// Why an operation could not start.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum Busy {
-    /// Another operation is under way; one runs at a time.
-    Busy,
-}
-
 /// The client's settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ClientConfig {
@@ -199,9 +191,8 @@ pub struct ClientConfig {
     pub own: Address,
     /// The longest wait for an answer, and how many such waits of silence end an operation:
     /// 1.5 s and 5 retries by default (MAVSDK's). Below the longest wait, the client asks again
-    /// after the measured round trip's timeout, doubled with each unanswered try; it gives up
-    /// only after `timeout_us × (retries + 1)` without an answer, as a client with fixed
-    /// timeouts would.
+    /// after the measured round trip's timeout, doubled for each of the first two unanswered
+    /// tries ([`Rtt::backoff_us`]); it gives up only as [`Retry::exhausted`] says.
     pub retry: Retry,
 }
 
@@ -289,7 +280,7 @@ impl Client {
 
     fn start(&mut self, kind: MavMissionType, op: Op) -> Result<(), Busy> {
         if !self.is_idle() {
-            return Err(Busy::Busy);
+            return Err(Busy);
         }
         self.kind = kind;
         self.op = op;
@@ -612,7 +603,8 @@ pub struct ServerConfig {
     pub own: Address,
     /// The longest wait for an item asked for, and how many such waits of silence give the
     /// upload up: 1 s and 5 by default. Below the longest wait, the server asks again after the
-    /// measured round trip's timeout, doubled with each unanswered try.
+    /// measured round trip's timeout ([`Rtt::backoff_us`]), and gives up only as
+    /// [`Retry::exhausted`] says.
     pub retry: Retry,
 }
 

@@ -73,6 +73,19 @@ impl Retry {
     }
 }
 
+/// Why a client's operation could not start: another is under way, and one runs at a time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Busy;
+
+impl core::fmt::Display for Busy {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("another operation is under way")
+    }
+}
+
+#[cfg(feature = "std")]
+impl std::error::Error for Busy {}
+
 /// The earlier of two optional deadlines.
 pub(crate) fn earliest(a: Option<u64>, b: Option<u64>) -> Option<u64> {
     match (a, b) {

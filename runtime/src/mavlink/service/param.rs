@@ -16,7 +16,7 @@ use super::messages::{
     Heartbeat, MavAutopilot, MavParamType, Message, ParamRequestList, ParamRequestRead, ParamSet,
     ParamValue,
 };
-use super::{Address, Retry, Rtt};
+use super::{Address, Busy, Retry, Rtt};
 use crate::mavlink::CharArray;
 
 /// A parameter name: up to 16 bytes, NUL-padded.
@@ -250,14 +250,6 @@ pub enum Event {
     Set(Option<Received>),
 }
 
-/// Why an operation could not start.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum Busy {
-    /// Another operation is under way; one runs at a time.
-    Busy,
-}
-
 /// The client's settings.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ClientConfig {
@@ -394,7 +386,7 @@ impl<const W: usize> Client<W> {
 
     fn start(&mut self, op: Op) -> Result<(), Busy> {
         if !self.is_idle() {
-            return Err(Busy::Busy);
+            return Err(Busy);
         }
         self.op = op;
         self.tries = 0;
