@@ -237,10 +237,11 @@ fn value_line(r: &Received) -> String {
 /// The contract's line for a command's answer: `{"command": ID, "result": "MAV_RESULT_...",
 /// "progress": [..]}` (`null` result when nothing answered).
 fn command_line(id: u16, result: Option<&str>, progress: &[u8]) -> String {
+    let progress: Vec<String> = progress.iter().map(u8::to_string).collect();
     format!(
-        "{{\"command\": {id}, \"result\": {}, \"progress\": {}}}",
+        "{{\"command\": {id}, \"result\": {}, \"progress\": [{}]}}",
         serde_json::json!(result),
-        serde_json::json!(progress)
+        progress.join(", ")
     )
 }
 
