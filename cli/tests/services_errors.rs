@@ -24,7 +24,10 @@ fn refused(args: &[&str], code: i32) -> String {
 #[test]
 fn a_bad_uri() {
     let err = refused(&["param", "list", "udpin://nowhere:99999"], 1);
-    assert!(err.starts_with("udpin://nowhere:99999: bad port \"99999\""), "{err}");
+    assert!(
+        err.starts_with("udpin://nowhere:99999: bad port \"99999\""),
+        "{err}"
+    );
     assert!(err.contains("hint: accepted forms: "), "{err}");
 }
 
