@@ -105,6 +105,20 @@ pub fn mcrf4xx_step(crc: u16, byte: u8) -> u16 {
     MCRF4XX.table()[0][usize::from(crc.to_le_bytes()[0] ^ byte)] ^ (crc >> 8)
 }
 
+/// The CRC-32 of MAVLink FTP's `CalcFileCRC32`, as PX4, ArduPilot and MAVSDK compute it: the
+/// IEEE polynomial reflected (zlib's table), but from 0 and with no final xor (zlib's CRC-32
+/// starts from and ends with `0xFFFFFFFF`). Byte at a time, through a 1 KiB table.
+pub const FTP_CRC32: Crc<u32, Table<1>> = Crc::<u32, Table<1>>::new(&::crc::Algorithm {
+    width: 32,
+    poly: 0x04c1_1db7,
+    init: 0,
+    refin: true,
+    refout: true,
+    xorout: 0,
+    check: 0x2dfd_2d88,
+    residue: 0,
+});
+
 /// A fresh running CRC-16/MCRF4XX.
 #[inline]
 pub fn mcrf4xx_digest() -> Mcrf4xxDigest {
@@ -114,6 +128,14 @@ pub fn mcrf4xx_digest() -> Mcrf4xxDigest {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_ftp_crc32_is_zlibs_without_the_inversions() {
+        // zlib's CRC-32 of "123456789" is 0xCBF43926; with neither the initial nor the final
+        // inversion it is this.
+        assert_eq!(FTP_CRC32.checksum(b"123456789"), 0x2dfd_2d88);
+        assert_eq!(FTP_CRC32.checksum(b""), 0);
+    }
 
     #[test]
     fn a_checksum_continues_byte_by_byte() {

@@ -2,6 +2,7 @@
 //! link.
 
 mod command;
+mod ftp;
 mod lossy;
 mod mission;
 mod param;

@@ -1,4 +1,4 @@
-//! The MAVLink microservices as sans-I/O state machines: commands, parameters and missions, on the client
+//! The MAVLink microservices as sans-I/O state machines: commands, parameters, missions and FTP, on the client
 //! side and on the server (vehicle) side, and the heartbeat table clients pick targets from.
 //!
 //! Each state machine owns no socket, clock or thread. It is fed messages and the time, and
@@ -26,6 +26,7 @@
 pub mod generated;
 
 pub mod command;
+pub mod ftp;
 pub mod mission;
 pub mod param;
 pub mod peers;

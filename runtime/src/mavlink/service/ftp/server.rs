@@ -1,0 +1,410 @@
+//! The FTP server over the caller's [`FileSystem`].
+
+use super::super::messages::Message;
+use super::super::Address;
+use super::{push_entry, Entry, EntryKind, FileSystem, Nak, Opcode, Payload, MAX_DATA};
+
+/// The server's settings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ServerConfig {
+    /// Our own address.
+    pub own: Address,
+    /// Replies in one burst before `burst_complete` (the client then asks for the next burst):
+    /// 64 by default, about 15 kB, so that a burst fits in a socket's receive buffer and a
+    /// client that lost the end of one waits no longer than a burst takes.
+    pub burst_replies: u16,
+    /// The gap between the replies of a burst (µs): 0 by default, as fast as the caller sends.
+    /// A firmware on a slow UART sets it to the time a reply takes on the wire.
+    pub burst_gap_us: u64,
+    /// A session unused this long (µs) is closed when a new one is needed and none is free,
+    /// so a client that vanished holding one locks no one out: 5 s by default.
+    pub session_idle_us: u64,
+}
+
+impl ServerConfig {
+    /// The defaults, as `own`.
+    pub const fn new(own: Address) -> Self {
+        Self {
+            own,
+            burst_replies: 64,
+            burst_gap_us: 0,
+            session_idle_us: 5_000_000,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    Read { size: u32 },
+    Write,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Session {
+    mode: Mode,
+    used_us: u64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Burst {
+    to: Address,
+    session: u8,
+    seq: u16,
+    offset: u32,
+    end: u32,
+    chunk: usize,
+    left: u16,
+    next_us: u64,
+}
+
+/// The FTP server, with `S` sessions (files open at once, 1 to 255).
+///
+/// A request repeated with the same sequence number (its reply was lost) is answered with the
+/// same reply and not run again, so a repeated create, write, remove or rename does no harm
+/// and reports what the first did. A repeated burst read starts the burst again.
+#[derive(Debug, Clone)]
+pub struct Server<const S: usize> {
+    config: ServerConfig,
+    sessions: [Option<Session>; S],
+    replies: [Option<(Address, Payload)>; 4],
+    last: Option<(Address, u16, u8, Payload)>,
+    burst: Option<Burst>,
+    dropped: usize,
+}
+
+impl<const S: usize> Server<S> {
+    /// A server with no open sessions.
+    pub fn new(config: ServerConfig) -> Self {
+        Self {
+            config,
+            sessions: [None; S],
+            replies: [None; 4],
+            last: None,
+            burst: None,
+            dropped: 0,
+        }
+    }
+
+    /// Its settings.
+    pub fn config(&self) -> &ServerConfig {
+        &self.config
+    }
+
+    /// Replies dropped because the caller did not drain [`Server::poll_transmit`] in time.
+    pub fn dropped(&self) -> usize {
+        self.dropped
+    }
+
+    /// Sessions open.
+    pub fn open_sessions(&self) -> usize {
+        self.sessions.iter().flatten().count()
+    }
+
+    fn queue(&mut self, to: Address, reply: Payload) {
+        match self.replies.iter_mut().find(|s| s.is_none()) {
+            Some(slot) => *slot = Some((to, reply)),
+            None => crate::bump(&mut self.dropped, 1),
+        }
+    }
+
+    /// A message from `from`. FILE_TRANSFER_PROTOCOL requests for us are served from `fs`;
+    /// anything else is ignored.
+    pub fn handle<F: FileSystem + ?Sized>(
+        &mut self,
+        fs: &mut F,
+        now_us: u64,
+        from: Address,
+        msg: &Message,
+    ) {
+        let Message::FileTransferProtocol(m) = msg else {
+            return;
+        };
+        if !self
+            .config
+            .own
+            .is_addressed_by(m.target_system, m.target_component)
+        {
+            return;
+        }
+        let req = Payload::parse(&m.payload);
+        let Some(op) = Opcode::from_u8(req.opcode) else {
+            self.queue(from, Payload::nak(&req, Nak::UnknownCommand));
+            return;
+        };
+        if matches!(op, Opcode::None | Opcode::Ack | Opcode::Nak) {
+            return;
+        }
+        if let Some((to, seq, opcode, reply)) = self.last {
+            if to == from && seq == req.seq && opcode == req.opcode && op != Opcode::BurstReadFile
+            {
+                self.queue(from, reply);
+                return;
+            }
+        }
+        if usize::from(req.size) > MAX_DATA {
+            let reply = Payload::nak(&req, Nak::InvalidDataSize);
+            self.answer(from, &req, reply);
+            return;
+        }
+        let reply = match self.serve(fs, now_us, from, op, &req) {
+            Ok(Some(reply)) => reply,
+            Ok(None) => return,
+            Err(why) => Payload::nak(&req, why),
+        };
+        self.answer(from, &req, reply);
+    }
+
+    fn answer(&mut self, to: Address, req: &Payload, reply: Payload) {
+        self.last = Some((to, req.seq, req.opcode, reply));
+        self.queue(to, reply);
+    }
+
+    /// Serves one request: its reply, or `None` when the reply is a burst.
+    fn serve<F: FileSystem + ?Sized>(
+        &mut self,
+        fs: &mut F,
+        now_us: u64,
+        from: Address,
+        op: Opcode,
+        req: &Payload,
+    ) -> Result<Option<Payload>, Nak> {
+        let mut ack = Payload::reply(req, Opcode::Ack);
+        let path = || req.path(0).filter(|p| !p.is_empty()).ok_or(Nak::Fail);
+        match op {
+            Opcode::TerminateSession => {
+                if usize::from(req.session) < S {
+                    self.close(fs, req.session);
+                }
+            }
+            Opcode::ResetSessions => {
+                for s in 0..S {
+                    self.close(fs, s as u8);
+                }
+            }
+            Opcode::ListDirectory => {
+                let path = req.path(0).ok_or(Nak::Fail)?;
+                let mut used = 0;
+                let mut data = [0; MAX_DATA];
+                fs.list(path, req.offset, &mut |entry: Entry<'_>| {
+                    if push_entry(&mut data, &mut used, entry) {
+                        return true;
+                    }
+                    // An entry too long for any reply is listed as a skip, so the index
+                    // still moves on.
+                    if used == 0 {
+                        let skip = Entry {
+                            kind: EntryKind::Skip,
+                            name: "",
+                            size: 0,
+                        };
+                        push_entry(&mut data, &mut used, skip);
+                    }
+                    false
+                })?;
+                if used == 0 {
+                    return Err(Nak::Eof);
+                }
+                ack.set_bytes(&data[..used]);
+                ack.offset = req.offset;
+            }
+            Opcode::OpenFileRO | Opcode::CreateFile | Opcode::OpenFileWO => {
+                let path = path()?;
+                let session = self.allocate(fs, now_us)?;
+                let opened = match op {
+                    Opcode::OpenFileRO => fs.open_read(session, path).map(|size| (Mode::Read { size }, size)),
+                    _ => fs
+                        .open_write(session, path, op == Opcode::CreateFile)
+                        .map(|size| (Mode::Write, size)),
+                };
+                let (mode, size) = opened?;
+                self.sessions[usize::from(session)] = Some(Session {
+                    mode,
+                    used_us: now_us,
+                });
+                ack.session = session;
+                if op != Opcode::CreateFile {
+                    ack.set_bytes(&size.to_le_bytes());
+                }
+            }
+            Opcode::ReadFile => {
+                let size = self.reading(req.session, now_us)?;
+                if req.offset >= size {
+                    return Err(Nak::Eof);
+                }
+                let want = chunk(req.size).min((size - req.offset) as usize);
+                let n = fs.read(req.session, req.offset, &mut ack.data[..want])?;
+                if n == 0 {
+                    return Err(Nak::Eof);
+                }
+                ack.size = n.min(want) as u8;
+                ack.offset = req.offset;
+            }
+            Opcode::BurstReadFile => {
+                let size = self.reading(req.session, now_us)?;
+                if req.offset >= size {
+                    return Err(Nak::Eof);
+                }
+                self.burst = Some(Burst {
+                    to: from,
+                    session: req.session,
+                    seq: req.seq.wrapping_add(1),
+                    offset: req.offset,
+                    end: size,
+                    chunk: chunk(req.size),
+                    left: self.config.burst_replies.max(1),
+                    next_us: now_us,
+                });
+                return Ok(None);
+            }
+            Opcode::WriteFile => {
+                match self.session(req.session, now_us) {
+                    Some(Mode::Write) => {}
+                    _ => return Err(Nak::InvalidSession),
+                }
+                fs.write(req.session, req.offset, req.bytes())?;
+                ack.offset = req.offset;
+            }
+            Opcode::RemoveFile => fs.remove_file(path()?)?,
+            Opcode::CreateDirectory => fs.create_dir(path()?)?,
+            Opcode::RemoveDirectory => fs.remove_dir(path()?)?,
+            Opcode::TruncateFile => fs.truncate(path()?, req.offset)?,
+            Opcode::Rename => {
+                let to = req.path(1).filter(|p| !p.is_empty()).ok_or(Nak::Fail)?;
+                fs.rename(path()?, to)?;
+            }
+            Opcode::CalcFileCRC32 => {
+                let path = path()?;
+                let session = self.allocate(fs, now_us)?;
+                let crc = crc_of(fs, session, path);
+                fs.close(session);
+                ack.set_bytes(&crc?.to_le_bytes());
+            }
+            Opcode::None | Opcode::Ack | Opcode::Nak => return Ok(None),
+        }
+        Ok(Some(ack))
+    }
+
+    fn session(&mut self, session: u8, now_us: u64) -> Option<Mode> {
+        let s = self.sessions.get_mut(usize::from(session))?.as_mut()?;
+        s.used_us = now_us;
+        Some(s.mode)
+    }
+
+    fn reading(&mut self, session: u8, now_us: u64) -> Result<u32, Nak> {
+        match self.session(session, now_us) {
+            Some(Mode::Read { size }) => Ok(size),
+            _ => Err(Nak::InvalidSession),
+        }
+    }
+
+    fn close<F: FileSystem + ?Sized>(&mut self, fs: &mut F, session: u8) {
+        if let Some(slot) = self.sessions.get_mut(usize::from(session)) {
+            if slot.take().is_some() {
+                fs.close(session);
+            }
+        }
+        if self.burst.is_some_and(|b| b.session == session) {
+            self.burst = None;
+        }
+    }
+
+    /// The lowest free session, or the one idle longest if idle past the limit.
+    fn allocate<F: FileSystem + ?Sized>(&mut self, fs: &mut F, now_us: u64) -> Result<u8, Nak> {
+        if let Some(free) = self.sessions.iter().position(Option::is_none) {
+            return Ok(free as u8);
+        }
+        let idle = self
+            .sessions
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| s.map(|s| (i, s.used_us)))
+            .filter(|&(_, used)| now_us.saturating_sub(used) >= self.config.session_idle_us)
+            .min_by_key(|&(_, used)| used);
+        match idle {
+            Some((i, _)) => {
+                self.close(fs, i as u8);
+                Ok(i as u8)
+            }
+            None => Err(Nak::NoSessionsAvailable),
+        }
+    }
+
+    /// The next message to send: replies first, then the next reply of a burst when due.
+    pub fn poll_transmit<F: FileSystem + ?Sized>(
+        &mut self,
+        fs: &mut F,
+        now_us: u64,
+    ) -> Option<Message> {
+        if let Some((to, reply)) = self.replies[0].take() {
+            self.replies.rotate_left(1);
+            return Some(reply.to_message(to));
+        }
+        let mut b = self.burst?;
+        if now_us < b.next_us {
+            return None;
+        }
+        let req = Payload::request(b.seq.wrapping_sub(1), b.session, Opcode::BurstReadFile, b.offset);
+        let mut reply = Payload::reply(&req, Opcode::Ack);
+        let want = b.chunk.min((b.end - b.offset) as usize);
+        match fs.read(b.session, b.offset, &mut reply.data[..want]) {
+            Ok(n) if n > 0 => {
+                reply.size = n.min(want) as u8;
+                reply.offset = b.offset;
+                b.offset += u32::from(reply.size);
+                b.left -= 1;
+                reply.burst_complete = b.offset >= b.end || b.left == 0;
+            }
+            Ok(_) => {
+                reply = Payload::nak(&req, Nak::Eof);
+                reply.offset = b.offset;
+                reply.burst_complete = true;
+            }
+            Err(why) => {
+                reply = Payload::nak(&req, why);
+                reply.burst_complete = true;
+            }
+        }
+        b.seq = b.seq.wrapping_add(1);
+        b.next_us = now_us.saturating_add(self.config.burst_gap_us);
+        if let Some(s) = self.sessions[usize::from(b.session)].as_mut() {
+            s.used_us = now_us;
+        }
+        self.burst = (!reply.burst_complete).then_some(b);
+        Some(reply.to_message(b.to))
+    }
+
+    /// When to call [`Server::poll_transmit`] again if nothing arrives: now while replies
+    /// wait, else when a burst's next reply is due.
+    pub fn poll_timeout(&self) -> Option<u64> {
+        if self.replies[0].is_some() {
+            return Some(0);
+        }
+        self.burst.map(|b| b.next_us)
+    }
+}
+
+/// Data per read reply for a request's `size`: as asked, 0 and anything over the maximum
+/// meaning a full reply.
+fn chunk(size: u8) -> usize {
+    match usize::from(size) {
+        0 => MAX_DATA,
+        n => n.min(MAX_DATA),
+    }
+}
+
+/// The CRC-32 of file `path`, read through `session`.
+fn crc_of<F: FileSystem + ?Sized>(fs: &mut F, session: u8, path: &str) -> Result<u32, Nak> {
+    let size = fs.open_read(session, path)?;
+    let mut digest = crate::crc::FTP_CRC32.digest();
+    let mut buf = [0; MAX_DATA];
+    let mut at = 0u32;
+    while at < size {
+        let n = fs.read(session, at, &mut buf)?;
+        if n == 0 {
+            break;
+        }
+        digest.update(&buf[..n.min(MAX_DATA)]);
+        at += n.min(MAX_DATA) as u32;
+    }
+    Ok(digest.finalize())
+}
