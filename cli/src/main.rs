@@ -4,6 +4,7 @@
 mod dialect;
 mod diff;
 mod mavlink;
+mod mavlink_ftp;
 mod mavlink_services;
 mod mavlink_stats;
 mod modrob;

@@ -107,8 +107,11 @@ pub enum Command {
     /// answer. Exit 0 on ACCEPTED, 1 on another result, 2 when nothing answered.
     #[command(name = "command")]
     Cmd(crate::mavlink_services::CommandArgs),
-    /// A software vehicle: HEARTBEAT, parameters, missions and commands on every endpoint, for
-    /// testing ground software. Prints `ready` once every endpoint is open.
+    /// Files of a vehicle over MAVLink FTP: ls, get, put.
+    #[command(subcommand)]
+    Ftp(crate::mavlink_ftp::FtpCommand),
+    /// A software vehicle: HEARTBEAT, parameters, missions, commands and FTP on every endpoint,
+    /// for testing ground software. Prints `ready` once every endpoint is open.
     Vehicle(crate::mavlink_services::VehicleArgs),
     /// Per source: message rates and sequence loss of a .tlog; optionally a plot of message
     /// rates over time.
@@ -310,6 +313,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Param(command) => crate::mavlink_services::param(command),
         Command::Mission(command) => crate::mavlink_services::mission(command),
         Command::Cmd(args) => crate::mavlink_services::command(args),
+        Command::Ftp(command) => crate::mavlink_ftp::ftp(command),
         Command::Vehicle(args) => crate::mavlink_services::vehicle(args),
     }
 }

@@ -29,7 +29,7 @@ const DISCOVERY: Duration = Duration::from_secs(10);
 pub struct TargetArg {
     /// The target system and component [default: the first vehicle heard, component 1].
     #[arg(long, value_name = "SYS/COMP", value_parser = parse_target)]
-    target: Option<Address>,
+    pub(crate) target: Option<Address>,
 }
 
 fn parse_target(s: &str) -> std::result::Result<Address, String> {
@@ -177,6 +177,9 @@ pub struct VehicleArgs {
     /// Its parameters: QGroundControl's .params, or MAVProxy's .parm (anything else).
     #[arg(long, value_name = "FILE")]
     params: Option<PathBuf>,
+    /// The directory it serves over MAVLink FTP (read and written; nothing outside it).
+    #[arg(long, value_name = "DIR")]
+    ftp_root: Option<PathBuf>,
     /// Stop after SECS seconds (SIGINT and SIGTERM stop it too).
     #[arg(long, value_name = "SECS")]
     run_for: Option<f64>,
@@ -186,15 +189,15 @@ pub struct VehicleArgs {
     endpoints: Vec<String>,
 }
 
-type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
+pub(crate) type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
-fn open(uri: &str) -> Result<Connection> {
+pub(crate) fn open(uri: &str) -> Result<Connection> {
     Connection::open(uri, services::TABLE).map_err(|e| format!("{uri}: {e}").into())
 }
 
 /// The target: the one given (its autopilot from its HEARTBEAT if one comes), or the first
 /// vehicle heard.
-fn find_target(link: &mut Connection, uri: &str, target: TargetArg) -> Result<Peer> {
+pub(crate) fn find_target(link: &mut Connection, uri: &str, target: TargetArg) -> Result<Peer> {
     let Some(address) = target.target else {
         return services::wait_for_vehicle(link, DISCOVERY)?.ok_or_else(|| {
             format!(
@@ -362,7 +365,7 @@ fn unknown(name: &str, peer: Peer) -> Box<dyn std::error::Error> {
 }
 
 /// A progress bar on stderr when it is a terminal (hidden otherwise).
-fn progress_bar(what: &'static str) -> indicatif::ProgressBar {
+pub(crate) fn progress_bar(what: &'static str) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(0);
     if let Ok(style) = indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len}") {
         bar.set_style(style.progress_chars("=> "));
@@ -563,6 +566,7 @@ pub fn vehicle(args: VehicleArgs) -> Result<ExitCode> {
         kind: MavType::Quadrotor,
         params,
         table: table.into(),
+        ftp_root: args.ftp_root,
     };
     let run_for = args
         .run_for

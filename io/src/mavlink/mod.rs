@@ -20,6 +20,7 @@
 //! [`Connection::recv`] waits at most a given time.
 
 pub mod config;
+pub mod ftp;
 pub mod missionfile;
 pub mod paramfile;
 pub mod router;

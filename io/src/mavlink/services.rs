@@ -1,5 +1,5 @@
-//! The microservices on a [`Connection`]: a blocking client for commands and parameters
-//! ([`Remote`]), on the runtime's state machines
+//! The microservices on a [`Connection`]: a blocking client for commands, parameters,
+//! missions and (in [`super::ftp`]) files ([`Remote`]), on the runtime's state machines
 //! ([`ferrolink_runtime::mavlink::service`]).
 //!
 //! ```no_run
@@ -20,6 +20,7 @@ use std::io;
 use std::time::{Duration, Instant};
 
 use ferrolink_runtime::mavlink::service::command::{self, Ack, Command};
+use ferrolink_runtime::mavlink::service::ftp;
 use ferrolink_runtime::mavlink::service::messages::{
     Heartbeat, MavAutopilot, MavModeFlag, MavState, MavType, Message,
 };
@@ -137,6 +138,11 @@ pub struct Remote<'c> {
     /// answering midway (3): a server that gives up after a few lost frames (MAVSDK's does)
     /// starts afresh.
     pub mission_attempts: u8,
+    /// The FTP client's settings.
+    pub ftp_config: ftp::ClientConfig,
+    /// The next FTP request's sequence number: from the clock at first, so that two runs of a
+    /// program do not start alike.
+    pub(super) ftp_seq: u16,
 }
 
 impl<'c> Remote<'c> {
@@ -153,6 +159,10 @@ impl<'c> Remote<'c> {
             param_config: param::ClientConfig::new(own),
             mission_config: mission::ClientConfig::new(own),
             mission_attempts: 3,
+            ftp_config: ftp::ClientConfig::new(own),
+            ftp_seq: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.subsec_micros() as u16),
         }
     }
 
@@ -161,13 +171,13 @@ impl<'c> Remote<'c> {
         self.target
     }
 
-    fn now_us(&self) -> u64 {
+    pub(super) fn now_us(&self) -> u64 {
         self.start.elapsed().as_micros() as u64
     }
 
     /// The next service message from anyone, or `None` at `until_us`. Our heartbeat goes out
     /// once a second meanwhile.
-    fn next(&mut self, until_us: u64) -> io::Result<Option<(Address, Message)>> {
+    pub(super) fn next(&mut self, until_us: u64) -> io::Result<Option<(Address, Message)>> {
         loop {
             let now = Instant::now();
             if now >= self.beat {
@@ -188,7 +198,7 @@ impl<'c> Remote<'c> {
         }
     }
 
-    fn send(&mut self, msg: &Message) -> io::Result<()> {
+    pub(super) fn send(&mut self, msg: &Message) -> io::Result<()> {
         self.link.send_dialect(msg)
     }
 

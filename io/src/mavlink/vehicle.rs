@@ -16,11 +16,13 @@
 //! | anything else | UNSUPPORTED |
 
 use std::io;
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
 use ferrolink_runtime::mavlink::service::command::{self, Ack, Request};
+use ferrolink_runtime::mavlink::service::ftp;
 use ferrolink_runtime::mavlink::service::messages::{
     Heartbeat, MavAutopilot, MavCmd, MavMissionType, MavModeFlag, MavResult, MavState, MavType,
     Message,
@@ -30,6 +32,7 @@ use ferrolink_runtime::mavlink::service::param::{self, Encoding, Param};
 use ferrolink_runtime::mavlink::service::Address;
 use ferrolink_runtime::mavlink::MessageMeta;
 
+use super::ftp::DirFs;
 use super::Connection;
 
 /// What the vehicle is.
@@ -46,6 +49,8 @@ pub struct Config {
     pub params: Vec<Param>,
     /// The messages its connections check frames against (the services' at least).
     pub table: Arc<[MessageMeta]>,
+    /// The directory it serves over MAVLink FTP; none: FTP requests go unanswered.
+    pub ftp_root: Option<PathBuf>,
 }
 
 struct Shared {
@@ -131,6 +136,9 @@ pub fn run(
     stop: &Arc<AtomicBool>,
     ready: impl FnOnce(),
 ) -> io::Result<()> {
+    if let Some(root) = &config.ftp_root {
+        DirFs::new(root)?;
+    }
     let mut links = Vec::new();
     for uri in endpoints {
         let mut link = Connection::open(uri, config.table.clone())
@@ -181,6 +189,12 @@ fn serve(
     });
     let mut commands: command::Server<8> = command::Server::new(command::ServerConfig::new(own));
     let mut missions = mission::Server::new(mission::ServerConfig::new(own));
+    // Each endpoint has its own sessions; the files are the directory's, shared.
+    let mut files = config
+        .ftp_root
+        .as_deref()
+        .and_then(|root| DirFs::new(root).ok());
+    let mut ftp: ftp::Server<4> = ftp::Server::new(ftp::ServerConfig::new(own));
     let mut staged: [Vec<Item>; 3] = Default::default();
     let mut running: Vec<Running> = Vec::new();
     let start = Instant::now();
@@ -228,6 +242,11 @@ fn serve(
         while let Some(m) = commands.poll_transmit(t) {
             let _ = link.send_dialect(&m);
         }
+        if let Some(files) = files.as_mut() {
+            while let Some(m) = ftp.poll_transmit(files, t) {
+                let _ = link.send_dialect(&m);
+            }
+        }
         // Sleep until a frame, the next heartbeat, a long command's next step, or 100 ms
         // (to look at `stop`).
         let mut wake = beat.min(now + Duration::from_millis(100));
@@ -236,9 +255,13 @@ fn serve(
                 .min(r.started + CALIBRATION / 2)
                 .min(r.started + CALIBRATION);
         }
-        for deadline in [params.poll_timeout(), missions.poll_timeout()]
-            .into_iter()
-            .flatten()
+        for deadline in [
+            params.poll_timeout(),
+            missions.poll_timeout(),
+            ftp.poll_timeout(),
+        ]
+        .into_iter()
+        .flatten()
         {
             let at = start + Duration::from_micros(deadline);
             wake = wake.min(at.max(now));
@@ -262,6 +285,9 @@ fn serve(
                 staged: &mut staged,
             };
             missions.handle(&mut store, t, from, &msg);
+        }
+        if let Some(files) = files.as_mut() {
+            ftp.handle(files, t, from, &msg);
         }
         match commands.handle(t, from, &msg) {
             Some(Request::Run { from, command }) => {

@@ -19,9 +19,13 @@
 //! - every COMMAND_ACK goes to the sender of a command, for that command's id;
 //! - a client's list ends with no more missing values than the count;
 //! - the mission server's store takes an upload only whole: every committed mission has the
-//!   count its upload announced, and items are put only in order, each once.
+//!   count its upload announced, and items are put only in order, each once;
+//! - the FTP server reads and writes only through sessions it opened, in the mode it opened
+//!   them, and every byte it sends in a read or burst reply is the file's byte at that offset;
+//!   an FTP client started on a listing, read or write ends with at most one `Done`.
 
 use ferrolink_runtime::mavlink::service::command::{self, Ack, Request};
+use ferrolink_runtime::mavlink::service::ftp::{self, Entry, EntryKind, FileSystem, Nak, Payload};
 use ferrolink_runtime::mavlink::service::messages::{MavCmd, MavMissionType, MavResult, Message};
 use ferrolink_runtime::mavlink::service::mission::{self, Item};
 use ferrolink_runtime::mavlink::service::param::{self, Encoding, Name, Param, Store, Value};
@@ -98,6 +102,143 @@ impl mission::Store for Checked {
     }
 }
 
+/// Three small files, read and written only as the server may.
+struct Files {
+    files: Vec<(&'static str, Vec<u8>)>,
+    /// Session -> (file index, writable).
+    open: Vec<Option<(usize, bool)>>,
+}
+
+impl Files {
+    fn new() -> Self {
+        Self {
+            files: vec![
+                ("a", (0..=255).collect()),
+                ("dir/b", (0..1000u32).map(|i| (i * 7) as u8).collect()),
+                ("c", Vec::new()),
+            ],
+            open: vec![None; 2],
+        }
+    }
+
+    fn find(&self, path: &str) -> Result<usize, Nak> {
+        let p = path.trim_start_matches('/');
+        self.files
+            .iter()
+            .position(|(n, _)| *n == p)
+            .ok_or(Nak::FileNotFound)
+    }
+
+    fn session(&self, session: u8) -> (usize, bool) {
+        let s = self.open.get(usize::from(session)).copied().flatten();
+        s.expect("the server used a session it did not open")
+    }
+}
+
+impl FileSystem for Files {
+    fn list(
+        &mut self,
+        path: &str,
+        from: u32,
+        out: &mut dyn FnMut(Entry<'_>) -> bool,
+    ) -> Result<(), Nak> {
+        if path.trim_matches('/') != "" {
+            return Err(Nak::FileNotFound);
+        }
+        let all = [
+            Entry {
+                kind: EntryKind::File,
+                name: "a",
+                size: 256,
+            },
+            Entry {
+                kind: EntryKind::Dir,
+                name: "dir",
+                size: 0,
+            },
+            Entry {
+                kind: EntryKind::File,
+                name: "c",
+                size: self.files[2].1.len() as u32,
+            },
+        ];
+        for e in all.into_iter().skip(from as usize) {
+            if !out(e) {
+                break;
+            }
+        }
+        Ok(())
+    }
+    fn open_read(&mut self, session: u8, path: &str) -> Result<u32, Nak> {
+        let i = self.find(path)?;
+        assert!(
+            self.open[usize::from(session)].is_none(),
+            "a session opened twice"
+        );
+        self.open[usize::from(session)] = Some((i, false));
+        Ok(self.files[i].1.len() as u32)
+    }
+    fn open_write(&mut self, session: u8, path: &str, create: bool) -> Result<u32, Nak> {
+        let i = self.find(path)?;
+        assert!(
+            self.open[usize::from(session)].is_none(),
+            "a session opened twice"
+        );
+        if create {
+            self.files[i].1.clear();
+        }
+        self.open[usize::from(session)] = Some((i, true));
+        Ok(self.files[i].1.len() as u32)
+    }
+    fn read(&mut self, session: u8, offset: u32, buf: &mut [u8]) -> Result<usize, Nak> {
+        let (i, _) = self.session(session);
+        let rest = self.files[i].1.get(offset as usize..).unwrap_or(&[]);
+        let n = rest.len().min(buf.len());
+        buf[..n].copy_from_slice(&rest[..n]);
+        Ok(n)
+    }
+    fn write(&mut self, session: u8, offset: u32, data: &[u8]) -> Result<(), Nak> {
+        let (i, writable) = self.session(session);
+        assert!(writable, "a write through a session opened for reading");
+        let end = offset as usize + data.len();
+        if end > 4096 {
+            return Err(Nak::Fail);
+        }
+        let file = &mut self.files[i].1;
+        if file.len() < end {
+            file.resize(end, 0);
+        }
+        file[offset as usize..end].copy_from_slice(data);
+        Ok(())
+    }
+    fn close(&mut self, session: u8) {
+        assert!(
+            self.open[usize::from(session)].take().is_some(),
+            "closed a session not open"
+        );
+    }
+    fn remove_file(&mut self, path: &str) -> Result<(), Nak> {
+        self.find(path).and(Err(Nak::FileProtected))
+    }
+    fn create_dir(&mut self, _: &str) -> Result<(), Nak> {
+        Err(Nak::FileProtected)
+    }
+    fn remove_dir(&mut self, _: &str) -> Result<(), Nak> {
+        Err(Nak::FileProtected)
+    }
+    fn rename(&mut self, from: &str, _: &str) -> Result<(), Nak> {
+        self.find(from).and(Err(Nak::FileProtected))
+    }
+    fn truncate(&mut self, path: &str, len: u32) -> Result<(), Nak> {
+        let i = self.find(path)?;
+        if len > 4096 {
+            return Err(Nak::Fail);
+        }
+        self.files[i].1.resize(len as usize, 0);
+        Ok(())
+    }
+}
+
 struct Bytes<'a>(&'a [u8]);
 
 impl Bytes<'_> {
@@ -138,6 +279,11 @@ pub fn check_servers(data: &[u8]) {
     let mut missions = Checked::default();
     let mut mission_client = mission::Client::new(mission::ClientConfig::new(GCS), OWN);
     let mut upload = MissionItems((0..7).map(|_| Item::default()).collect());
+    let mut ftp_server: ftp::Server<2> = ftp::Server::new(ftp::ServerConfig::new(OWN));
+    let mut files = Files::new();
+    let mut ftp_client = ftp::Client::new(ftp::ClientConfig::new(GCS), OWN);
+    let mut ftp_done = 0usize;
+    let mut ftp_started = 0usize;
     let mut now: u64 = 0;
     // Commands the server handed out and not yet answered: (from, id).
     let mut asked: Vec<(Address, MavCmd)> = Vec::new();
@@ -178,6 +324,8 @@ pub fn check_servers(data: &[u8]) {
                 command_client.handle(now, from, &msg);
                 mission_server.handle(&mut missions, now, from, &msg);
                 mission_client.handle(&mut upload, now, from, &msg);
+                ftp_server.handle(&mut files, now, from, &msg);
+                ftp_client.handle(now, from, &msg);
             }
             4 => now += u64::from(input.byte().unwrap_or(0)) * 10_000,
             5 => {
@@ -203,6 +351,15 @@ pub fn check_servers(data: &[u8]) {
                     4 => drop(mission_client.upload(MavMissionType::Mission, 7)),
                     5 => drop(mission_client.download(MavMissionType::Fence)),
                     6 => drop(mission_client.clear(MavMissionType::Rally)),
+                    7 if which & 0x30 != 0 => {
+                        let started = match which >> 6 {
+                            0 => ftp_client.list(now, "/"),
+                            1 => ftp_client.read(now, "/dir/b"),
+                            2 => ftp_client.write(now, "/a", u32::from(which)),
+                            _ => ftp_client.crc32(now, "/a"),
+                        };
+                        ftp_started += usize::from(started.is_ok());
+                    }
                     _ => drop(mission_client.set_current(u16::from(which))),
                 }
             }
@@ -246,9 +403,30 @@ pub fn check_servers(data: &[u8]) {
                 "an ACK nobody asked for: {a:?}"
             );
         }
+        for _ in 0..10_000 {
+            let Some(m) = ftp_server.poll_transmit(&mut files, now) else {
+                break;
+            };
+            let Message::FileTransferProtocol(m) = m else {
+                panic!("the FTP server sent {m:?}")
+            };
+            let p = Payload::parse(&m.payload);
+            let read = p.req_opcode == 5 || p.req_opcode == 15;
+            if p.opcode == 128 && read && p.size > 0 {
+                let (i, _) = files.session(p.session);
+                let at = p.offset as usize;
+                assert_eq!(
+                    files.files[i].1.get(at..at + usize::from(p.size)),
+                    Some(p.bytes()),
+                    "read reply data that is not the file's"
+                );
+            }
+        }
         let mut sent = 0;
+        let source: &mut [u8] = &mut [7u8; 255];
         while param_client.poll_transmit(now).is_some()
             || command_client.poll_transmit(now).is_some()
+            || ftp_client.poll_transmit(now, source).is_some()
         {
             sent += 1;
             assert!(sent < 100, "a client keeps sending at one instant");
@@ -260,11 +438,19 @@ pub fn check_servers(data: &[u8]) {
         }
         while command_client.poll_event().is_some() {}
         while mission_client.poll_event().is_some() {}
+        while let Some(e) = ftp_client.poll_event() {
+            if matches!(e, ftp::Event::Done(_)) {
+                ftp_done += 1;
+                assert!(ftp_done <= ftp_started, "an FTP operation ended twice");
+            }
+        }
         let _ = (
             param_client.poll_timeout(),
             command_client.poll_timeout(),
             mission_client.poll_timeout(),
             mission_server.poll_timeout(),
+            ftp_client.poll_timeout(),
+            ftp_server.poll_timeout(),
         );
     }
 }

@@ -46,7 +46,11 @@ impl FileSystem for MemFs {
         if !self.dir_exists(&dir) {
             return Err(Nak::FileNotFound);
         }
-        let prefix = if dir.is_empty() { String::new() } else { format!("{dir}/") };
+        let prefix = if dir.is_empty() {
+            String::new()
+        } else {
+            format!("{dir}/")
+        };
         let mut all: Vec<(String, EntryKind, u32)> = Vec::new();
         for d in &self.dirs {
             if let Some(rest) = d.strip_prefix(&prefix) {
@@ -64,7 +68,11 @@ impl FileSystem for MemFs {
         }
         all.sort_by(|a, b| a.0.cmp(&b.0));
         for (name, kind, size) in all.iter().skip(from as usize) {
-            if !out(Entry { kind: *kind, name, size: *size }) {
+            if !out(Entry {
+                kind: *kind,
+                name,
+                size: *size,
+            }) {
                 break;
             }
         }
@@ -111,7 +119,10 @@ impl FileSystem for MemFs {
         self.open.remove(&session);
     }
     fn remove_file(&mut self, path: &str) -> Result<(), Nak> {
-        self.files.remove(&norm(path)).map(|_| ()).ok_or(Nak::FileNotFound)
+        self.files
+            .remove(&norm(path))
+            .map(|_| ())
+            .ok_or(Nak::FileNotFound)
     }
     fn create_dir(&mut self, path: &str) -> Result<(), Nak> {
         let p = norm(path);
@@ -123,7 +134,11 @@ impl FileSystem for MemFs {
     }
     fn remove_dir(&mut self, path: &str) -> Result<(), Nak> {
         let p = norm(path);
-        let i = self.dirs.iter().position(|d| *d == p).ok_or(Nak::FileNotFound)?;
+        let i = self
+            .dirs
+            .iter()
+            .position(|d| *d == p)
+            .ok_or(Nak::FileNotFound)?;
         self.dirs.remove(i);
         Ok(())
     }
@@ -247,7 +262,8 @@ fn sample_fs() -> MemFs {
     fs.files.insert("logs/a.bin".into(), file(70_000, 2));
     fs.files.insert("empty".into(), Vec::new());
     for i in 0..30 {
-        fs.files.insert(format!("logs/many-{i:02}.log"), file(i * 7, i as u32));
+        fs.files
+            .insert(format!("logs/many-{i:02}.log"), file(i * 7, i as u32));
     }
     fs
 }
@@ -259,7 +275,11 @@ fn every_operation(seed: u64, faults: Faults) {
     for path in ["/logs/a.bin", "params.txt", "/empty"] {
         gcs.client.read(sim.now_us, path).unwrap();
         assert_eq!(finish(&mut sim, &mut gcs, &mut vehicle), Ok(None), "{path}");
-        assert_eq!(gcs.got, vehicle.fs.files[path.trim_start_matches('/')], "{path}");
+        assert_eq!(
+            gcs.got,
+            vehicle.fs.files[path.trim_start_matches('/')],
+            "{path}"
+        );
     }
     gcs.client.read(sim.now_us, "/nope").unwrap();
     assert_eq!(
@@ -291,10 +311,14 @@ fn every_operation(seed: u64, faults: Faults) {
         assert_eq!(finish(&mut sim, &mut gcs, &mut vehicle), Ok(Some(crc)));
     }
 
-    gcs.client.rename(sim.now_us, "/up.bin", "/logs/moved.bin").unwrap();
+    gcs.client
+        .rename(sim.now_us, "/up.bin", "/logs/moved.bin")
+        .unwrap();
     assert_eq!(finish(&mut sim, &mut gcs, &mut vehicle), Ok(None));
     assert!(vehicle.fs.files.contains_key("logs/moved.bin"));
-    gcs.client.truncate(sim.now_us, "/logs/moved.bin", 10).unwrap();
+    gcs.client
+        .truncate(sim.now_us, "/logs/moved.bin", 10)
+        .unwrap();
     assert_eq!(finish(&mut sim, &mut gcs, &mut vehicle), Ok(None));
     assert_eq!(vehicle.fs.files["logs/moved.bin"].len(), 10);
     gcs.client.remove(sim.now_us, "/logs/moved.bin").unwrap();
@@ -345,7 +369,12 @@ fn a_megabyte_read_through_a_bad_radio_is_byte_exact() {
 }
 
 fn request(seq: u16, opcode: u8, session: u8, offset: u32, data: &[u8]) -> Message {
-    let mut p = Payload::request(seq, session, ferrolink_runtime::mavlink::service::ftp::Opcode::None, offset);
+    let mut p = Payload::request(
+        seq,
+        session,
+        ferrolink_runtime::mavlink::service::ftp::Opcode::None,
+        offset,
+    );
     p.opcode = opcode;
     p.set_bytes(data);
     p.to_message(VEHICLE)
@@ -383,7 +412,10 @@ fn a_burst_honours_the_size_asked_and_ends_after_its_replies() {
     fs.files.insert("f".into(), file(100_000, 3));
     let (_, mut vehicle) = pair(fs);
     vehicle.handle(0, GCS, &request(0, 4, 0, 0, b"/f\0"));
-    assert_eq!(replies(&mut vehicle, 0)[0].bytes(), 100_000u32.to_le_bytes());
+    assert_eq!(
+        replies(&mut vehicle, 0)[0].bytes(),
+        100_000u32.to_le_bytes()
+    );
     vehicle.handle(1, GCS, &request(1, 15, 0, 1000, &[]));
     let mut burst = replies(&mut vehicle, 1);
     assert_eq!(burst.len(), 64);

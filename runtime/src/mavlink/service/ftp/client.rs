@@ -131,7 +131,9 @@ enum Phase {
 enum Op {
     Idle,
     /// One request; `crc` when its ACK carries a CRC-32.
-    Simple { crc: bool },
+    Simple {
+        crc: bool,
+    },
     List,
     Read(Phase),
     Write(Phase),
@@ -277,6 +279,20 @@ impl Client {
         }
     }
 
+    /// The client, numbering its requests from `seq`. A program that makes a client per run
+    /// starts each from a different number (the clock's, say), so that a server that answers
+    /// a repeated request from its last reply does not take the new run's first request for
+    /// the last run's.
+    pub fn with_seq(mut self, seq: u16) -> Self {
+        self.seq = seq;
+        self
+    }
+
+    /// The sequence number the next request will carry.
+    pub fn seq(&self) -> u16 {
+        self.seq
+    }
+
     /// Its settings.
     pub fn config(&self) -> &ClientConfig {
         &self.config
@@ -352,34 +368,64 @@ impl Client {
 
     /// Removes file `path`.
     pub fn remove(&mut self, now_us: u64, path: &str) -> Result<(), Busy> {
-        self.begin(now_us, Op::Simple { crc: false }, Opcode::RemoveFile, &[path])
+        self.begin(
+            now_us,
+            Op::Simple { crc: false },
+            Opcode::RemoveFile,
+            &[path],
+        )
     }
 
     /// Creates directory `path`.
     pub fn create_dir(&mut self, now_us: u64, path: &str) -> Result<(), Busy> {
-        self.begin(now_us, Op::Simple { crc: false }, Opcode::CreateDirectory, &[path])
+        self.begin(
+            now_us,
+            Op::Simple { crc: false },
+            Opcode::CreateDirectory,
+            &[path],
+        )
     }
 
     /// Removes directory `path`.
     pub fn remove_dir(&mut self, now_us: u64, path: &str) -> Result<(), Busy> {
-        self.begin(now_us, Op::Simple { crc: false }, Opcode::RemoveDirectory, &[path])
+        self.begin(
+            now_us,
+            Op::Simple { crc: false },
+            Opcode::RemoveDirectory,
+            &[path],
+        )
     }
 
     /// Renames `from` to `to`.
     pub fn rename(&mut self, now_us: u64, from: &str, to: &str) -> Result<(), Busy> {
-        self.begin(now_us, Op::Simple { crc: false }, Opcode::Rename, &[from, to])
+        self.begin(
+            now_us,
+            Op::Simple { crc: false },
+            Opcode::Rename,
+            &[from, to],
+        )
     }
 
     /// Cuts or extends file `path` to `len` bytes.
     pub fn truncate(&mut self, now_us: u64, path: &str, len: u32) -> Result<(), Busy> {
-        self.begin(now_us, Op::Simple { crc: false }, Opcode::TruncateFile, &[path])?;
+        self.begin(
+            now_us,
+            Op::Simple { crc: false },
+            Opcode::TruncateFile,
+            &[path],
+        )?;
         self.request.offset = len;
         Ok(())
     }
 
     /// The CRC-32 of file `path` ([`crate::crc::FTP_CRC32`]), in [`Event::Done`].
     pub fn crc32(&mut self, now_us: u64, path: &str) -> Result<(), Busy> {
-        self.begin(now_us, Op::Simple { crc: true }, Opcode::CalcFileCRC32, &[path])
+        self.begin(
+            now_us,
+            Op::Simple { crc: true },
+            Opcode::CalcFileCRC32,
+            &[path],
+        )
     }
 
     fn next_seq(&mut self) -> u16 {
@@ -495,7 +541,10 @@ impl Client {
         };
         if from.system != self.target.system
             || (self.target.component != 0 && from.component != self.target.component)
-            || !self.config.own.is_addressed_by(m.target_system, m.target_component)
+            || !self
+                .config
+                .own
+                .is_addressed_by(m.target_system, m.target_component)
         {
             return;
         }

@@ -302,8 +302,12 @@ pub struct Entry<'a> {
 pub trait FileSystem {
     /// Calls `out` with the entries of directory `path` from the `from`th on, in an order that
     /// stays the same between calls, until it returns `false` or there are no more.
-    fn list(&mut self, path: &str, from: u32, out: &mut dyn FnMut(Entry<'_>) -> bool)
-        -> Result<(), Nak>;
+    fn list(
+        &mut self,
+        path: &str,
+        from: u32,
+        out: &mut dyn FnMut(Entry<'_>) -> bool,
+    ) -> Result<(), Nak>;
     /// Opens `path` for reading in `session`; its size.
     fn open_read(&mut self, session: u8, path: &str) -> Result<u32, Nak>;
     /// Opens `path` for writing in `session`: created empty (or emptied) when `create`, else
@@ -331,7 +335,10 @@ pub trait FileSystem {
 /// `D<name>\0`, `S\0`); `false` if it does not fit.
 pub(crate) fn push_entry(data: &mut [u8; MAX_DATA], used: &mut usize, entry: Entry<'_>) -> bool {
     let mut buf = [0u8; MAX_DATA];
-    let mut w = Cursor { buf: &mut buf, at: 0 };
+    let mut w = Cursor {
+        buf: &mut buf,
+        at: 0,
+    };
     let ok = match entry.kind {
         EntryKind::File => {
             w.put(b"F") && w.put(entry.name.as_bytes()) && w.put(b"\t") && w.num(entry.size)
@@ -383,19 +390,17 @@ impl Cursor<'_> {
 /// The entries of a listing reply's data, in order (`S` entries included as
 /// [`EntryKind::Skip`]; malformed ones as a skip too, so the index still counts them).
 pub fn entries(data: &[u8]) -> impl Iterator<Item = Entry<'_>> {
-    data.split(|&b| b == 0)
-        .filter(|e| !e.is_empty())
-        .map(|e| {
-            let text = core::str::from_utf8(e).unwrap_or("S");
-            let (kind, rest) = match text.as_bytes().first() {
-                Some(b'F') => (EntryKind::File, &text[1..]),
-                Some(b'D') => (EntryKind::Dir, &text[1..]),
-                _ => (EntryKind::Skip, ""),
-            };
-            let (name, size) = match rest.split_once('\t') {
-                Some((name, size)) => (name, size.trim().parse().unwrap_or(0)),
-                None => (rest, 0),
-            };
-            Entry { kind, name, size }
-        })
+    data.split(|&b| b == 0).filter(|e| !e.is_empty()).map(|e| {
+        let text = core::str::from_utf8(e).unwrap_or("S");
+        let (kind, rest) = match text.as_bytes().first() {
+            Some(b'F') => (EntryKind::File, &text[1..]),
+            Some(b'D') => (EntryKind::Dir, &text[1..]),
+            _ => (EntryKind::Skip, ""),
+        };
+        let (name, size) = match rest.split_once('\t') {
+            Some((name, size)) => (name, size.trim().parse().unwrap_or(0)),
+            None => (rest, 0),
+        };
+        Entry { kind, name, size }
+    })
 }

@@ -19,6 +19,10 @@ pub struct ServerConfig {
     /// A session unused this long (µs) is closed when a new one is needed and none is free,
     /// so a client that vanished holding one locks no one out: 5 s by default.
     pub session_idle_us: u64,
+    /// How long after a request the same request (the same bytes from the same sender) is a
+    /// repeat, answered with the first reply: 3 s by default. Later, it runs again: a new
+    /// client that starts its numbering where an old one did is not answered from the past.
+    pub repeat_window_us: u64,
 }
 
 impl ServerConfig {
@@ -29,6 +33,7 @@ impl ServerConfig {
             burst_replies: 64,
             burst_gap_us: 0,
             session_idle_us: 5_000_000,
+            repeat_window_us: 3_000_000,
         }
     }
 }
@@ -67,7 +72,8 @@ pub struct Server<const S: usize> {
     config: ServerConfig,
     sessions: [Option<Session>; S],
     replies: [Option<(Address, Payload)>; 4],
-    last: Option<(Address, u16, u8, Payload)>,
+    /// The last request (its sender, bytes and arrival) and its reply.
+    last: Option<(Address, [u8; 251], u64, Payload)>,
     burst: Option<Burst>,
     dropped: usize,
 }
@@ -134,16 +140,18 @@ impl<const S: usize> Server<S> {
         if matches!(op, Opcode::None | Opcode::Ack | Opcode::Nak) {
             return;
         }
-        if let Some((to, seq, opcode, reply)) = self.last {
-            if to == from && seq == req.seq && opcode == req.opcode && op != Opcode::BurstReadFile
-            {
+        if let Some((to, bytes, at, reply)) = self.last {
+            let repeat = to == from
+                && bytes == m.payload
+                && now_us.saturating_sub(at) < self.config.repeat_window_us;
+            if repeat && op != Opcode::BurstReadFile {
                 self.queue(from, reply);
                 return;
             }
         }
         if usize::from(req.size) > MAX_DATA {
             let reply = Payload::nak(&req, Nak::InvalidDataSize);
-            self.answer(from, &req, reply);
+            self.answer(from, &m.payload, now_us, reply);
             return;
         }
         let reply = match self.serve(fs, now_us, from, op, &req) {
@@ -151,11 +159,11 @@ impl<const S: usize> Server<S> {
             Ok(None) => return,
             Err(why) => Payload::nak(&req, why),
         };
-        self.answer(from, &req, reply);
+        self.answer(from, &m.payload, now_us, reply);
     }
 
-    fn answer(&mut self, to: Address, req: &Payload, reply: Payload) {
-        self.last = Some((to, req.seq, req.opcode, reply));
+    fn answer(&mut self, to: Address, request: &[u8; 251], now_us: u64, reply: Payload) {
+        self.last = Some((to, *request, now_us, reply));
         self.queue(to, reply);
     }
 
@@ -211,7 +219,9 @@ impl<const S: usize> Server<S> {
                 let path = path()?;
                 let session = self.allocate(fs, now_us)?;
                 let opened = match op {
-                    Opcode::OpenFileRO => fs.open_read(session, path).map(|size| (Mode::Read { size }, size)),
+                    Opcode::OpenFileRO => fs
+                        .open_read(session, path)
+                        .map(|size| (Mode::Read { size }, size)),
                     _ => fs
                         .open_write(session, path, op == Opcode::CreateFile)
                         .map(|size| (Mode::Write, size)),
@@ -343,7 +353,12 @@ impl<const S: usize> Server<S> {
         if now_us < b.next_us {
             return None;
         }
-        let req = Payload::request(b.seq.wrapping_sub(1), b.session, Opcode::BurstReadFile, b.offset);
+        let req = Payload::request(
+            b.seq.wrapping_sub(1),
+            b.session,
+            Opcode::BurstReadFile,
+            b.offset,
+        );
         let mut reply = Payload::reply(&req, Opcode::Ack);
         let want = b.chunk.min((b.end - b.offset) as usize);
         match fs.read(b.session, b.offset, &mut reply.data[..want]) {
