@@ -25,6 +25,16 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
                      of datagrams, repeats 5 % and delays some past later ones (seeded):
                      MAVSDK lists our vehicle, and we list MAVSDK's ParamServer, every value
                      exact.
+  mavsdk_ftp         MAVSDK's Ftp plugin against our vehicle's --ftp-root: a directory listed,
+                     a 300 kB file downloaded with and without bursts byte for byte, a file
+                     uploaded, compared by CRC-32 (are_files_identical), renamed and removed,
+                     a directory created and removed; each checked on disk.
+  our_ftp            ``ferrolink mavlink ftp ls|get|put`` against MAVSDK's FtpServer plugin:
+                     the listing, a 300 kB file read (MAVSDK bursts the whole file unpaced)
+                     and one written, byte for byte on disk, our CRC-32 agreeing with MAVSDK's.
+  lossy_ftp          through the relay: our get and put of 200 kB against MAVSDK's FtpServer
+                     and against our vehicle at 20 % loss, and MAVSDK's burst download from
+                     our vehicle at 5 %.
   lossy_mission      a 100-item mission up and down through the relay, both directions:
                      MAVSDK against our vehicle, and our CLI against MAVSDK's server. A
                      transfer our side drives goes through 20 % loss; one MAVSDK drives
@@ -235,12 +245,13 @@ class Relay:
         self.back.close()
 
 
-async def start_vehicle(args, autopilot, port, seconds=60):
+async def start_vehicle(args, autopilot, port, seconds=60, ftp_root=None):
     params = os.path.join(args.workdir, "vehicle.params")
     write_params(params)
+    extra = ["--ftp-root", ftp_root] if ftp_root else []
     proc = await asyncio.create_subprocess_exec(
         args.ferrolink, "mavlink", "vehicle", "--params", params, "--autopilot", autopilot,
-        "--run-for", str(seconds), "udpout://%s:%d" % (HOST, port),
+        "--run-for", str(seconds), *extra, "udpout://%s:%d" % (HOST, port),
         stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
     line = await asyncio.wait_for(proc.stdout.readline(), 10)
     if b"ready" not in line:
@@ -649,6 +660,190 @@ async def check_lossy_mission(args):
     return "; ".join(notes)
 
 
+def ftp_tree(args, name, big=300_000):
+    """A fresh directory to serve: big.bin (seeded random bytes), logs/a.txt, an empty dir."""
+    root = os.path.join(args.workdir, name)
+    if os.path.exists(root):
+        import shutil
+        shutil.rmtree(root)
+    os.makedirs(os.path.join(root, "logs"))
+    os.makedirs(os.path.join(root, "empty"))
+    data = random.Random(args.seed + len(name)).randbytes(big)
+    with open(os.path.join(root, "big.bin"), "wb") as f:
+        f.write(data)
+    with open(os.path.join(root, "logs", "a.txt"), "w") as f:
+        f.write("a log\n")
+    return root, data
+
+
+def read_file(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+async def mavsdk_ftp_download(ftp, remote, local_dir, burst):
+    async for _result, _progress in ftp.download(remote, local_dir, burst):
+        pass
+    return read_file(os.path.join(local_dir, os.path.basename(remote)))
+
+
+async def check_mavsdk_ftp(args):
+    from mavsdk.asyncio.plugins.ftp import FtpAsync
+    root, data = ftp_tree(args, "ftp-ours")
+    port = free_udp_port()
+    vehicle = await start_vehicle(args, "px4", port, ftp_root=root)
+    notes = []
+    try:
+        mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
+        try:
+            ftp = FtpAsync(system)
+            listing = await ftp.list_directory("/")
+            names = sorted((e.name, int(e.entry_type)) for e in listing.entries)
+            want = [("big.bin", 1), ("empty", 2), ("logs", 2)]
+            if names != want:
+                raise CheckFailed("MAVSDK listed %s, the directory holds %s" % (names, want))
+            local = os.path.join(args.workdir, "ftp-mavsdk-down")
+            os.makedirs(local, exist_ok=True)
+            for burst in (False, True):
+                t0 = time.monotonic()
+                got = await mavsdk_ftp_download(ftp, "/big.bin", local, burst)
+                if got != data:
+                    raise CheckFailed("MAVSDK's download (burst %s) differs: %d of %d bytes"
+                                      % (burst, len(got), len(data)))
+                notes.append("%s %.2f s" % ("burst" if burst else "read", time.monotonic() - t0))
+            up = os.path.join(args.workdir, "ftp-up.bin")
+            payload = random.Random(args.seed).randbytes(50_000)
+            with open(up, "wb") as f:
+                f.write(payload)
+            async for _ in ftp.upload(up, "/logs"):
+                pass
+            if read_file(os.path.join(root, "logs", "ftp-up.bin")) != payload:
+                raise CheckFailed("MAVSDK's upload differs on disk")
+            if not await ftp.are_files_identical(up, "/logs/ftp-up.bin"):
+                raise CheckFailed("MAVSDK's CRC-32 of the upload is not our vehicle's")
+            if await ftp.are_files_identical(up, "/big.bin"):
+                raise CheckFailed("are_files_identical said yes to different files")
+            await ftp.rename("/logs/ftp-up.bin", "/logs/moved.bin")
+            await ftp.remove_file("/logs/moved.bin")
+            await ftp.create_directory("/made")
+            if not os.path.isdir(os.path.join(root, "made")):
+                raise CheckFailed("MAVSDK's create_directory made nothing")
+            await ftp.remove_directory("/made")
+            if sorted(os.listdir(root)) != ["big.bin", "empty", "logs"] or \
+                    os.listdir(os.path.join(root, "logs")) != ["a.txt"]:
+                raise CheckFailed("left behind: %s" % os.listdir(root))
+        finally:
+            await mavsdk.__aexit__(None, None, None)
+    finally:
+        await stop(vehicle)
+    return "listing, 300 kB down (%s), up, CRC-32, rename, remove, mkdir, rmdir" % ", ".join(notes)
+
+
+async def mavsdk_ftp_vehicle(url, root):
+    """A vehicle from MAVSDK's FtpServer serving ``root``: (mavsdk, keep)."""
+    from mavsdk.asyncio import Mavsdk, Configuration, ComponentType
+    from mavsdk.asyncio.plugins.ftp_server import FtpServerAsync
+    from mavsdk.asyncio.plugins.param_server import ParamServerAsync
+    cfg = Configuration.create_with_component_type(ComponentType.AUTOPILOT)
+    cfg.system_id = 1
+    cfg.component_id = 1
+    mavsdk = Mavsdk(cfg)
+    await mavsdk.__aenter__()
+    await mavsdk.add_any_connection(url)
+    component = await mavsdk.server_component()
+    server = FtpServerAsync(component)
+    await server.set_root_dir(root)
+    return mavsdk, [server, ParamServerAsync(component)]
+
+
+async def our_ftp_round_trip(args, uri, root, data, tag, timeout=120):
+    """ls, get big.bin, put a file: each checked on disk. Returns the seconds of get and put."""
+    rc, out, err = await ferrolink(args, "ftp", "ls", uri, "/", timeout=timeout)
+    if rc != 0:
+        raise CheckFailed("ftp ls exited %d: %s" % (rc, err))
+    got = sorted((l["name"], l["kind"], l["size"]) for l in map(json.loads, out.splitlines()))
+    want = [("big.bin", "file", len(data)), ("empty", "dir", 0), ("logs", "dir", 0)]
+    if got != want:
+        raise CheckFailed("ftp ls printed %s, the directory holds %s" % (got, want))
+    local = os.path.join(args.workdir, "ftp-%s-got.bin" % tag)
+    t0 = time.monotonic()
+    rc, out, err = await ferrolink(args, "ftp", "get", uri, "/big.bin", local, timeout=timeout)
+    t1 = time.monotonic()
+    if rc != 0 or read_file(local) != data:
+        raise CheckFailed("ftp get exited %d (%s), or the bytes differ" % (rc, err))
+    up = os.path.join(args.workdir, "ftp-%s-up.bin" % tag)
+    payload = random.Random(args.seed + 7).randbytes(len(data) // 2 + 17)
+    with open(up, "wb") as f:
+        f.write(payload)
+    t2 = time.monotonic()
+    rc, out, err = await ferrolink(args, "ftp", "put", uri, up, "/logs/put.bin", timeout=timeout)
+    t3 = time.monotonic()
+    if rc != 0:
+        raise CheckFailed("ftp put exited %d: %s" % (rc, err))
+    if read_file(os.path.join(root, "logs", "put.bin")) != payload:
+        raise CheckFailed("ftp put: the file on disk differs")
+    return t1 - t0, t3 - t2
+
+
+async def check_our_ftp(args):
+    root, data = ftp_tree(args, "ftp-mavsdk")
+    port = free_udp_port()
+    mavsdk, keep = await mavsdk_ftp_vehicle("udpout://%s:%d" % (HOST, port), root)
+    try:
+        get_s, put_s = await our_ftp_round_trip(args, "udpin://%s:%d" % (HOST, port), root,
+                                                data, "clean")
+    finally:
+        await mavsdk.__aexit__(None, None, None)
+    # `put` exits 0 only when MAVSDK's CRC-32 of the file is ours.
+    return "ls, get 300 kB in %.2f s, put 150 kB in %.2f s (CRC-32 agreed)" % (get_s, put_s)
+
+
+async def check_lossy_ftp(args):
+    from mavsdk.asyncio.plugins.ftp import FtpAsync
+    notes = []
+    root, data = ftp_tree(args, "ftp-lossy-mavsdk", big=200_000)
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed + 4)
+    mavsdk, keep = await mavsdk_ftp_vehicle("udpout://%s:%d" % (HOST, relay.port), root)
+    try:
+        get_s, put_s = await our_ftp_round_trip(args, "udpin://%s:%d" % (HOST, port), root,
+                                                data, "lossy-mavsdk", timeout=300)
+        notes.append("we from MAVSDK's server: get %.1f s, put %.1f s" % (get_s, put_s))
+    finally:
+        await mavsdk.__aexit__(None, None, None)
+        relay.close()
+    root, data = ftp_tree(args, "ftp-lossy-ours", big=200_000)
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed + 5)
+    vehicle = await start_vehicle(args, "px4", relay.port, seconds=300, ftp_root=root)
+    try:
+        get_s, put_s = await our_ftp_round_trip(args, "udpin://%s:%d" % (HOST, port), root,
+                                                data, "lossy-ours", timeout=300)
+        notes.append("we from our vehicle: get %.1f s, put %.1f s" % (get_s, put_s))
+    finally:
+        await stop(vehicle)
+        relay.close()
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed + 6, loss=0.05)
+    vehicle = await start_vehicle(args, "px4", relay.port, seconds=300, ftp_root=root)
+    try:
+        mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
+        try:
+            local = os.path.join(args.workdir, "ftp-lossy-mavsdk-down")
+            os.makedirs(local, exist_ok=True)
+            t0 = time.monotonic()
+            got = await mavsdk_ftp_download(FtpAsync(system), "/big.bin", local, True)
+            if got != data:
+                raise CheckFailed("MAVSDK's burst download through the relay differs")
+            notes.append("MAVSDK from our vehicle at 5 %%: %.1f s" % (time.monotonic() - t0))
+        finally:
+            await mavsdk.__aexit__(None, None, None)
+    finally:
+        await stop(vehicle)
+        relay.close()
+    return "; ".join(notes) + " (200 kB, 20 % loss unless said)"
+
+
 CHECKS = {
     "mavsdk_params": check_mavsdk_params,
     "mavsdk_action": check_mavsdk_action,
@@ -658,6 +853,9 @@ CHECKS = {
     "our_mission": check_our_mission,
     "lossy_params": check_lossy_params,
     "lossy_mission": check_lossy_mission,
+    "mavsdk_ftp": check_mavsdk_ftp,
+    "our_ftp": check_our_ftp,
+    "lossy_ftp": check_lossy_ftp,
 }
 
 

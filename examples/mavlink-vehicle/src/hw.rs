@@ -166,8 +166,8 @@ fn stack_pointer() -> usize {
 
 /// The bounds of the stack: (lowest address it may reach, where it starts).
 fn stack_bounds() -> (usize, usize) {
-    // SAFETY: only the addresses of the linker's symbols are taken, never their contents.
-    unsafe { (addr_of!(_stack_end) as usize, addr_of!(_stack_start) as usize) }
+    // Only the addresses of the linker's symbols are taken, never their contents.
+    (addr_of!(_stack_end) as usize, addr_of!(_stack_start) as usize)
 }
 
 /// Fills the free stack, from the end of the static data up to just below the current stack

@@ -1,0 +1,157 @@
+//! MAVLink on the UART: the runtime's stream parser and decoders for what comes in, its
+//! MAVLink 2 encoder for what goes out.
+//!
+//! Only the messages the services use are decoded and encoded. The parser checks frames
+//! against [`RX_META`], the services' requests, and drops every other id; [`decode`] turns a
+//! frame into the [`Message`] the services take with the message's own decoder, and
+//! [`Link::send`] encodes the nine messages they answer with. `Message::decode` and
+//! `v2::encode_dialect` would do the same for any message, but they dispatch over all 26 of
+//! the services' messages (FTP's and the extended parameters' among them), which links every
+//! decoder and encoder: 3.6 kB more than the flash budget has (see the README).
+
+// MISSION_ITEM, MISSION_REQUEST and MISSION_SET_CURRENT are deprecated in common.xml, but
+// ground stations still send them, and the mission server answers them.
+#![allow(deprecated)]
+
+use ferrolink_runtime::framing::Feed;
+use ferrolink_runtime::mavlink::service::messages::{
+    CommandCancel, CommandInt, CommandLong, Heartbeat, Message, MissionClearAll, MissionCount,
+    MissionItem, MissionItemInt, MissionRequest, MissionRequestInt, MissionRequestList,
+    MissionSetCurrent, ParamRequestList, ParamRequestRead, ParamSet,
+};
+use ferrolink_runtime::mavlink::service::Address;
+use ferrolink_runtime::mavlink::{v2, Dialect, Header, Message as _, MessageMeta, Parser};
+
+use crate::hw::Uart;
+
+/// The messages the services take, sorted by id: the parser drops every other.
+pub static RX_META: [MessageMeta; 15] = pick([
+    Heartbeat::ID,
+    ParamRequestRead::ID,
+    ParamRequestList::ID,
+    ParamSet::ID,
+    MissionItem::ID,
+    MissionRequest::ID,
+    MissionSetCurrent::ID,
+    MissionRequestList::ID,
+    MissionCount::ID,
+    MissionClearAll::ID,
+    MissionRequestInt::ID,
+    MissionItemInt::ID,
+    CommandInt::ID,
+    CommandLong::ID,
+    CommandCancel::ID,
+]);
+
+/// The entries of the services' message table for `ids` (each must be there), at compile time.
+const fn pick<const N: usize>(ids: [u32; N]) -> [MessageMeta; N] {
+    let all = <Message as Dialect>::META;
+    let mut out = [all[0]; N];
+    let mut i = 0;
+    while i < N {
+        let mut j = 0;
+        while all[j].id != ids[i] {
+            j += 1;
+        }
+        out[i] = all[j];
+        i += 1;
+    }
+    out
+}
+
+/// The message of id `id` in `payload`, if it is one of [`RX_META`]'s.
+pub fn decode(id: u32, p: &[u8]) -> Option<Message> {
+    Some(match id {
+        Heartbeat::ID => Message::Heartbeat(Heartbeat::decode(p)),
+        ParamRequestRead::ID => Message::ParamRequestRead(ParamRequestRead::decode(p)),
+        ParamRequestList::ID => Message::ParamRequestList(ParamRequestList::decode(p)),
+        ParamSet::ID => Message::ParamSet(ParamSet::decode(p)),
+        MissionItem::ID => Message::MissionItem(MissionItem::decode(p)),
+        MissionRequest::ID => Message::MissionRequest(MissionRequest::decode(p)),
+        MissionSetCurrent::ID => Message::MissionSetCurrent(MissionSetCurrent::decode(p)),
+        MissionRequestList::ID => Message::MissionRequestList(MissionRequestList::decode(p)),
+        MissionCount::ID => Message::MissionCount(MissionCount::decode(p)),
+        MissionClearAll::ID => Message::MissionClearAll(MissionClearAll::decode(p)),
+        MissionRequestInt::ID => Message::MissionRequestInt(MissionRequestInt::decode(p)),
+        MissionItemInt::ID => Message::MissionItemInt(MissionItemInt::decode(p)),
+        CommandInt::ID => Message::CommandInt(CommandInt::decode(p)),
+        CommandLong::ID => Message::CommandLong(CommandLong::decode(p)),
+        CommandCancel::ID => Message::CommandCancel(CommandCancel::decode(p)),
+        _ => return None,
+    })
+}
+
+/// The UART with a parser on its input and a sequence number on its output.
+#[derive(Debug)]
+pub struct Link {
+    uart: Uart,
+    parser: &'static mut Parser,
+    own: Address,
+    /// A received byte the parser has not taken yet (it handed out a frame first).
+    held: Option<u8>,
+    /// The parser handed out a frame: it may hold another one, so ask it before feeding more.
+    again: bool,
+    seq: u8,
+}
+
+impl Link {
+    /// A link on `uart` sending as `own`, with `parser` (made with [`RX_META`]).
+    pub fn new(uart: Uart, parser: &'static mut Parser, own: Address) -> Self {
+        Self {
+            uart,
+            parser,
+            own,
+            held: None,
+            again: false,
+            seq: 0,
+        }
+    }
+
+    /// Feeds the parser at most one received byte; a message and its sender when that
+    /// completes a frame.
+    #[inline(never)]
+    pub fn receive(&mut self) -> Option<(Address, Message)> {
+        let byte = match self.held.take() {
+            Some(byte) => Some(byte),
+            None if self.again => None,
+            None => Some(self.uart.read()?),
+        };
+        self.again = false;
+        match self.parser.feed(byte.as_slice()) {
+            Feed::Consumed => None,
+            Feed::Frame { frame, remaining } => {
+                self.held = remaining.first().copied();
+                self.again = true;
+                let h = frame.header();
+                let msg = decode(frame.msg_id(), frame.payload())?;
+                Some((Address::new(h.sysid, h.compid), msg))
+            }
+        }
+    }
+
+    /// Sends `msg` as a MAVLink 2 frame. Only the messages the services answer with are
+    /// encoded (HEARTBEAT, PARAM_VALUE, COMMAND_ACK and the mission protocol's); any other is
+    /// dropped.
+    #[inline(never)]
+    pub fn send(&mut self, msg: &Message) {
+        let header = Header::new(self.seq, self.own.system, self.own.component);
+        let mut frame = [0u8; v2::MAX_UNSIGNED_FRAME_LEN];
+        let out = &mut frame;
+        let encoded = match msg {
+            Message::Heartbeat(m) => v2::encode(header, m, out),
+            Message::ParamValue(m) => v2::encode(header, m, out),
+            Message::CommandAck(m) => v2::encode(header, m, out),
+            Message::MissionCount(m) => v2::encode(header, m, out),
+            Message::MissionItemInt(m) => v2::encode(header, m, out),
+            Message::MissionItem(m) => v2::encode(header, m, out),
+            Message::MissionRequestInt(m) => v2::encode(header, m, out),
+            Message::MissionAck(m) => v2::encode(header, m, out),
+            Message::MissionCurrent(m) => v2::encode(header, m, out),
+            _ => return,
+        };
+        if let Ok(len) = encoded {
+            self.uart.write(frame.get(..len).unwrap_or_default());
+            self.seq = self.seq.wrapping_add(1);
+        }
+    }
+}
