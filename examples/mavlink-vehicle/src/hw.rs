@@ -1,15 +1,17 @@
-//! The board, by volatile register access: mps2-an386's UART0, the Cortex-M4's SysTick, and the
-//! stack's high-water mark. All the firmware's `unsafe` is in this module.
+//! The board, by volatile register access: mps2-an386's UART0, the Cortex-M4's SysTick, sleep,
+//! and the stack's high-water mark. All the firmware's `unsafe` is in this module.
 //!
-//! - **UART0** is a CMSDK APB UART at `0x4000_4000` (Arm DDI0479C, and QEMU's
+//! - **UART0** is a CMSDK APB UART at `0x4000_4000` (Arm DDI0479C; QEMU's
 //!   `hw/char/cmsdk-apb-uart.c`): DATA `+0x0`, STATE `+0x4` (bit 0 TX buffer full, bit 1 RX
-//!   buffer full), CTRL `+0x8` (bit 0 TX enable, bit 1 RX enable), BAUDDIV `+0x10` (at least
-//!   16). One byte each way, no FIFO. QEMU offers the next received byte only once DATA has been
-//!   read, so a polling loop loses nothing: the bytes wait in the host's socket.
+//!   buffer full), CTRL `+0x8` (bit 0 TX enable, bit 1 RX enable, bit 3 RX interrupt enable),
+//!   INTSTATUS `+0xC`, BAUDDIV `+0x10` (at least 16). One byte each way, no FIFO. QEMU offers
+//!   the next received byte only once DATA has been read, so polling loses nothing: the bytes
+//!   wait in the host's socket. The receive interrupt (IRQ 0) only wakes the core from
+//!   [`idle`]; the main loop reads the byte.
 //! - **SysTick** counts the 25 MHz processor clock down from 24 999 and raises its exception
 //!   every millisecond; [`uptime`] reads the millisecond count and the counter together.
-//! - **The stack** is painted with a pattern at start-up, below the stack pointer down to the end
-//!   of `.bss` (cortex-m-rt's `_stack_end`); [`stack_used`] finds the deepest word overwritten.
+//! - **The stack** is painted with a pattern at start-up, from the end of `.bss` (cortex-m-rt's
+//!   `_stack_end`) up to the stack pointer; [`stack_used`] finds the deepest word overwritten.
 
 // The registers are fixed addresses of the board; nothing here aliases memory that Rust owns.
 #![allow(unsafe_code)]
@@ -27,11 +29,16 @@ pub const SYSCLK_HZ: u32 = 25_000_000;
 pub const BAUD: u32 = 115_200;
 
 /// The interrupts portion of the vector table (cortex-m-rt's `device` feature): the board's
-/// 32 interrupt lines, all to cortex-m-rt's default handler (none is enabled). cortex-m-rt's
-/// generic table would have 240 entries, 832 bytes more of flash.
+/// 32 interrupt lines. cortex-m-rt's generic table would have 240 entries, 832 bytes more of
+/// flash. Only UART0's receive interrupt is enabled; the rest go to cortex-m-rt's default
+/// handler.
 #[link_section = ".vector_table.interrupts"]
 #[no_mangle]
-static __INTERRUPTS: [unsafe extern "C" fn(); 32] = [DefaultHandler; 32];
+static __INTERRUPTS: [unsafe extern "C" fn(); 32] = {
+    let mut vectors: [unsafe extern "C" fn(); 32] = [DefaultHandler; 32];
+    vectors[UART0_RX_IRQ] = uart0_rx;
+    vectors
+};
 
 extern "C" {
     fn DefaultHandler();
@@ -60,11 +67,20 @@ const UART0: usize = 0x4000_4000;
 const UART_DATA: Reg = Reg(UART0);
 const UART_STATE: Reg = Reg(UART0 + 0x4);
 const UART_CTRL: Reg = Reg(UART0 + 0x8);
+const UART_INTSTATUS: Reg = Reg(UART0 + 0xC);
 const UART_BAUDDIV: Reg = Reg(UART0 + 0x10);
 const STATE_TX_FULL: u32 = 1 << 0;
 const STATE_RX_FULL: u32 = 1 << 1;
 const CTRL_TX_EN: u32 = 1 << 0;
 const CTRL_RX_EN: u32 = 1 << 1;
+const CTRL_RX_INTEN: u32 = 1 << 3;
+/// INTSTATUS: a byte was received (write 1 to clear).
+const INT_RX: u32 = 1 << 1;
+/// UART0's receive interrupt line (QEMU's `hw/arm/mps2.c`: RX is 0, TX 1).
+const UART0_RX_IRQ: usize = 0;
+
+/// NVIC: interrupt set-enable for lines 0..32.
+const NVIC_ISER0: Reg = Reg(0xE000_E100);
 
 const SYST_CSR: Reg = Reg(0xE000_E010);
 const SYST_RVR: Reg = Reg(0xE000_E014);
@@ -125,11 +141,32 @@ impl Board {
         SYST_CVR.write(0);
         SYST_CSR.write(CSR_ENABLE | CSR_TICKINT | CSR_CLKSOURCE);
         UART_BAUDDIV.write(SYSCLK_HZ / BAUD);
-        UART_CTRL.write(CTRL_TX_EN | CTRL_RX_EN);
+        UART_CTRL.write(CTRL_TX_EN | CTRL_RX_EN | CTRL_RX_INTEN);
+        NVIC_ISER0.write(1 << UART0_RX_IRQ);
         Board {
             uart: Uart { _owned: () },
         }
     }
+}
+
+/// UART0's receive interrupt: it only wakes the core from [`idle`]. The byte stays in the data
+/// register for the main loop.
+extern "C" fn uart0_rx() {
+    UART_INTSTATUS.write(INT_RX);
+}
+
+/// Sleeps until an interrupt (a received byte, or SysTick within a millisecond), unless a
+/// received byte is waiting already. Interrupts are masked while it looks, so one that comes
+/// between the look and the sleep still ends the sleep.
+pub fn idle() {
+    // SAFETY (the three blocks): `cpsid i` and `cpsie i` mask and unmask interrupts, `wfi`
+    // waits for one (a pending interrupt ends it even while masked, and runs once unmasked).
+    // None of them touches memory or the stack.
+    unsafe { core::arch::asm!("cpsid i", options(nomem, nostack, preserves_flags)) };
+    if UART_STATE.read() & STATE_RX_FULL == 0 {
+        unsafe { core::arch::asm!("wfi", options(nomem, nostack, preserves_flags)) };
+    }
+    unsafe { core::arch::asm!("cpsie i", options(nomem, nostack, preserves_flags)) };
 }
 
 /// Milliseconds since SysTick started, wrapping.
@@ -160,14 +197,19 @@ pub fn uptime() -> (u32, u32) {
 fn stack_pointer() -> usize {
     let sp: usize;
     // SAFETY: reads a register into a local, nothing else.
-    unsafe { core::arch::asm!("mov {}, sp", out(reg) sp, options(nomem, nostack, preserves_flags)) };
+    unsafe {
+        core::arch::asm!("mov {}, sp", out(reg) sp, options(nomem, nostack, preserves_flags))
+    };
     sp
 }
 
 /// The bounds of the stack: (lowest address it may reach, where it starts).
 fn stack_bounds() -> (usize, usize) {
     // Only the addresses of the linker's symbols are taken, never their contents.
-    (addr_of!(_stack_end) as usize, addr_of!(_stack_start) as usize)
+    (
+        addr_of!(_stack_end) as usize,
+        addr_of!(_stack_start) as usize,
+    )
 }
 
 /// Fills the free stack, from the end of the static data up to just below the current stack
@@ -181,7 +223,7 @@ fn paint_stack() {
     while p < top {
         // SAFETY: `bottom..top` lies between the end of the static data and the stack
         // pointer: RAM that no Rust object occupies (the stack grows down towards it and has
-        // not reached it yet). Interrupts that use it meanwhile only overwrite the pattern.
+        // not reached it yet), and no interrupt is enabled yet that could push a frame there.
         unsafe { write_volatile(p as *mut u32, PAINT) };
         p += 4;
     }
@@ -192,8 +234,9 @@ fn paint_stack() {
 pub fn stack_used() -> u32 {
     let (bottom, start) = stack_bounds();
     let mut p = bottom;
-    // SAFETY: reads the words between the end of the static data and the stack pointer's
-    // lowest point so far, which are either paint or stale stack frames: plain RAM.
+    // SAFETY: reads, never writes, the words from the end of the static data up to the first
+    // that is not paint: paint, then a stale or (at the deepest point) live stack word. Plain,
+    // aligned RAM.
     while p < start && unsafe { read_volatile(p as *const u32) } == PAINT {
         p += 4;
     }

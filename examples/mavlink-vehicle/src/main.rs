@@ -15,7 +15,8 @@
 //! - here: the clock and the main loop.
 //!
 //! The main loop polls: at most one received byte, the services' timers, at most one message
-//! out, and again. Nothing waits but the UART's transmit buffer.
+//! out, and again. When a pass finds nothing to do, the core sleeps until the next byte or
+//! the next millisecond.
 
 #![no_std]
 #![no_main]
@@ -91,17 +92,21 @@ fn main() -> ! {
         let outgoing = vehicle.poll_transmit(now_us);
 
         // ---- FTP ---------------------------------------------------------------------------
-        // The place for the runtime's FTP server:
+        // The place for the runtime's FTP server (`service::ftp::Server` over a `FileSystem`):
         //
-        //     if let Some((from, msg)) = &received { ftp.handle(now_us, *from, msg); }
-        //     let outgoing = outgoing.or_else(|| ftp.poll_transmit(now_us));
+        //     if let Some((from, msg)) = &received { ftp.handle(fs, now_us, *from, msg); }
+        //     let outgoing = outgoing.or_else(|| ftp.poll_transmit(fs, now_us));
         //
         // with FILE_TRANSFER_PROTOCOL added to `link::RX_META`, `link::decode` and
         // `Link::send`. Until then the parser drops FTP frames and they go unanswered.
         // -------------------------------------------------------------------------------------
 
-        if let Some(msg) = outgoing {
-            link.send(&msg);
+        match outgoing {
+            Some(msg) => link.send(&msg),
+            // Nothing came and nothing is due: sleep until a byte arrives or the next
+            // millisecond, where the services' timers are looked at again.
+            None if received.is_none() && link.is_drained() => hw::idle(),
+            None => {}
         }
     }
 }

@@ -148,8 +148,14 @@ const fn names_unique() -> bool {
 // Checked at compile time: the names are unique, and the indices the firmware uses are where
 // it thinks they are.
 const _: () = assert!(names_unique(), "two parameters have the same name");
-const _: () = assert!(same_bytes(&TABLE[STACK_USED as usize].name.0, &name("SYS_STACK_USED").0));
-const _: () = assert!(same_bytes(&TABLE[NAV_DLL_ACT as usize].name.0, &name("NAV_DLL_ACT").0));
+const _: () = assert!(same_bytes(
+    &TABLE[STACK_USED as usize].name.0,
+    &name("SYS_STACK_USED").0
+));
+const _: () = assert!(same_bytes(
+    &TABLE[NAV_DLL_ACT as usize].name.0,
+    &name("NAV_DLL_ACT").0
+));
 
 /// The parameters' values, in RAM; names and types are [`TABLE`]'s.
 #[derive(Debug)]
@@ -169,7 +175,7 @@ impl Params {
         Self { values }
     }
 
-    /// The value of parameter `index` (which exists).
+    /// The value of parameter `index`, if there is one.
     pub fn value(&self, index: u16) -> Option<Value> {
         self.values.get(usize::from(index)).copied()
     }
@@ -194,10 +200,7 @@ impl Store for Params {
     }
 
     fn index_of(&self, name: &Name) -> Option<u16> {
-        TABLE
-            .iter()
-            .position(|p| p.name == *name)
-            .map(|i| i as u16)
+        TABLE.iter().position(|p| p.name == *name).map(|i| i as u16)
     }
 
     fn set(&mut self, index: u16, value: Value) -> Option<Value> {

@@ -13,8 +13,8 @@
 //!
 //! Data link loss: when the last ground station stays silent for 3 s (its HEARTBEATs, as the
 //! runtime's [`Peers`] keeps them) while the vehicle is armed and `NAV_DLL_ACT` is not 0, the
-//! vehicle disarms. On the ground every action PX4 offers there (hold, return, land) ends
-//! disarmed. `NAV_DLL_ACT` is 0 by default, as in PX4.
+//! vehicle disarms: it never leaves the ground, so PX4's actions (hold, return, land) all come
+//! to that. `NAV_DLL_ACT` is 0 by default, as in PX4.
 
 use ferrolink_runtime::mavlink::service::command::{self, Ack, Request};
 use ferrolink_runtime::mavlink::service::messages::{
@@ -90,34 +90,75 @@ impl Vehicle {
     }
 
     /// A message from `from`, for every service.
-    #[inline(never)]
     pub fn handle(&mut self, now_us: u64, from: Address, msg: &Message) {
-        self.peers.handle(now_us, from, msg);
+        self.peers_handle(now_us, from, msg);
+        self.param_handle(now_us, from, msg);
+        self.mission_handle(now_us, from, msg);
+        self.command_handle(now_us, from, msg);
+    }
+
+    /// What time brings: the calibration's progress and end, lost ground stations.
+    pub fn tick(&mut self, now_us: u64) {
+        self.command_tick(now_us);
+        self.peers_tick(now_us);
+    }
+
+    /// The next message to send: the HEARTBEAT when due, then the command, parameter and
+    /// mission servers' answers, one per call.
+    pub fn poll_transmit(&mut self, now_us: u64) -> Option<Message> {
+        if now_us >= self.next_heartbeat_us {
+            return Some(self.heartbeat(now_us));
+        }
+        self.command_transmit(now_us)
+            .or_else(|| self.param_transmit(now_us))
+            .or_else(|| self.mission_transmit(now_us))
+    }
+
+    // Each service is called from functions of its own, kept out of line: one copy of its
+    // code serves every caller, and `size.sh` finds each service's share under its name.
+
+    #[inline(never)]
+    fn param_handle(&mut self, now_us: u64, from: Address, msg: &Message) {
         self.params.handle(self.param_store, now_us, from, msg);
-        self.missions
-            .handle(self.mission_store, now_us, from, msg);
+    }
+
+    #[inline(never)]
+    fn param_transmit(&mut self, now_us: u64) -> Option<Message> {
+        self.params.poll_transmit(self.param_store, now_us)
+    }
+
+    #[inline(never)]
+    fn mission_handle(&mut self, now_us: u64, from: Address, msg: &Message) {
+        self.missions.handle(self.mission_store, now_us, from, msg);
+    }
+
+    #[inline(never)]
+    fn mission_transmit(&mut self, now_us: u64) -> Option<Message> {
+        self.missions.poll_transmit(self.mission_store, now_us)
+    }
+
+    #[inline(never)]
+    fn command_handle(&mut self, now_us: u64, from: Address, msg: &Message) {
         match self.commands.handle(now_us, from, msg) {
             Some(Request::Run { from, command }) => {
-                let ack = self.run(now_us, from, command.command, command.params[0]);
+                let ack = self.command_run(now_us, from, command.command, command.params[0]);
                 self.commands.respond(now_us, from, command.command, ack);
             }
-            Some(Request::Cancel { from, command }) => {
+            Some(Request::Cancel { from, command })
                 if self
                     .calibration
-                    .is_some_and(|c| c.from == from && command == MavCmd::PreflightCalibration)
-                {
-                    self.calibration = None;
-                    self.commands
-                        .respond(now_us, from, command, Ack::new(MavResult::Cancelled));
-                }
+                    .is_some_and(|c| c.from == from && command == MavCmd::PreflightCalibration) =>
+            {
+                self.calibration = None;
+                self.commands
+                    .respond(now_us, from, command, Ack::new(MavResult::Cancelled));
             }
-            None => {}
+            _ => {}
         }
     }
 
     /// Runs a new command from `from`: its first answer.
-    #[inline(never)]
-    fn run(&mut self, now_us: u64, from: Address, command: MavCmd, param1: f32) -> Ack {
+    fn command_run(&mut self, now_us: u64, from: Address, command: MavCmd, param1: f32) -> Ack {
         Ack::new(match command {
             MavCmd::ComponentArmDisarm => {
                 self.armed = param1 >= 0.5;
@@ -140,72 +181,67 @@ impl Vehicle {
         })
     }
 
-    /// What time brings: the calibration's progress and end, lost ground stations, the stack
-    /// figure.
+    /// The calibration's progress every quarter of its time, then its end.
     #[inline(never)]
-    pub fn tick(&mut self, now_us: u64) {
-        if let Some(mut c) = self.calibration {
-            let elapsed = now_us.saturating_sub(c.started_us);
-            if elapsed >= CALIBRATION_US {
-                self.calibration = None;
-                self.commands.respond(
-                    now_us,
-                    c.from,
-                    MavCmd::PreflightCalibration,
-                    Ack::new(MavResult::Accepted),
-                );
-            } else {
-                let progress = (elapsed / CALIBRATION_STEP_US * 25) as u8;
-                if progress > c.reported {
-                    c.reported = progress;
-                    self.calibration = Some(c);
-                    self.commands.respond(
-                        now_us,
-                        c.from,
-                        MavCmd::PreflightCalibration,
-                        in_progress(progress),
-                    );
-                }
+    fn command_tick(&mut self, now_us: u64) {
+        let Some(mut c) = self.calibration else {
+            return;
+        };
+        let elapsed = now_us.saturating_sub(c.started_us);
+        let ack = if elapsed >= CALIBRATION_US {
+            self.calibration = None;
+            Ack::new(MavResult::Accepted)
+        } else {
+            let progress = (elapsed / CALIBRATION_STEP_US * 25) as u8;
+            if progress <= c.reported {
+                return;
             }
-        }
-        self.peers.expire(now_us);
-        while let Some(event) = self.peers.poll_event() {
-            if let Event::Lost(_) = event {
-                self.on_link_lost();
-            }
-        }
+            c.reported = progress;
+            self.calibration = Some(c);
+            in_progress(progress)
+        };
+        self.commands
+            .respond(now_us, c.from, MavCmd::PreflightCalibration, ack);
     }
 
-    /// A component went silent: the data link loss action, if no ground station is left.
-    fn on_link_lost(&mut self) {
-        // Ground stations (and other components that are not an autopilot).
+    #[inline(never)]
+    fn command_transmit(&mut self, now_us: u64) -> Option<Message> {
+        self.commands.poll_transmit(now_us)
+    }
+
+    #[inline(never)]
+    fn peers_handle(&mut self, now_us: u64, from: Address, msg: &Message) {
+        self.peers.handle(now_us, from, msg);
+    }
+
+    /// Ground stations silent too long are lost; when none is left, the data link loss
+    /// action.
+    #[inline(never)]
+    fn peers_tick(&mut self, now_us: u64) {
+        self.peers.expire(now_us);
+        let mut lost = false;
+        while let Some(event) = self.peers.poll_event() {
+            lost |= matches!(event, Event::Lost(_));
+        }
+        // Ground stations, and any other component that is not an autopilot.
         let gcs_left = self.peers.iter().any(|p| !p.is_vehicle());
         let action = self.param_store.value(params::NAV_DLL_ACT);
-        if !gcs_left && self.armed && action.is_some_and(|a| a != Value::U8(0)) {
+        if lost && !gcs_left && self.armed && action.is_some_and(|a| a != Value::U8(0)) {
             self.armed = false;
         }
     }
 
-    /// The next message to send: the HEARTBEAT when due, then the command, parameter and
-    /// mission servers' answers, one per call.
+    /// The HEARTBEAT, due at `now_us`. The stack figure is refreshed with it.
     #[inline(never)]
-    pub fn poll_transmit(&mut self, now_us: u64) -> Option<Message> {
-        if now_us >= self.next_heartbeat_us {
-            // A fixed rate, not a fixed gap: a late HEARTBEAT does not delay the next.
-            self.next_heartbeat_us = (self.next_heartbeat_us + HEARTBEAT_US).max(now_us);
-            // The stack figure changes with what the firmware has done; refresh it with
-            // each HEARTBEAT.
-            self.param_store
-                .update(params::STACK_USED, Value::U32(hw::stack_used()));
-            return Some(self.heartbeat());
+    fn heartbeat(&mut self, now_us: u64) -> Message {
+        // A fixed rate: a late HEARTBEAT does not delay the next, but after a stall the next
+        // is a whole period away.
+        self.next_heartbeat_us += HEARTBEAT_US;
+        if self.next_heartbeat_us <= now_us {
+            self.next_heartbeat_us = now_us + HEARTBEAT_US;
         }
-        self.commands
-            .poll_transmit(now_us)
-            .or_else(|| self.params.poll_transmit(self.param_store, now_us))
-            .or_else(|| self.missions.poll_transmit(self.mission_store, now_us))
-    }
-
-    fn heartbeat(&self) -> Message {
+        self.param_store
+            .update(params::STACK_USED, Value::U32(hw::stack_used()));
         let mut base_mode = MavModeFlag::CUSTOM_MODE_ENABLED;
         if self.armed {
             base_mode |= MavModeFlag::SAFETY_ARMED;

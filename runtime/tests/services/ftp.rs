@@ -452,6 +452,24 @@ fn a_vanished_client_does_not_hold_the_sessions() {
     assert_eq!(replies(&mut vehicle, 6_000_000)[0].opcode, 128);
 }
 
+#[test]
+fn a_session_keeps_the_number_the_client_gave_when_it_is_free() {
+    // pymavlink numbers sessions itself; PX4-style clients take the reply's number.
+    let (_, mut vehicle) = pair(sample_fs());
+    vehicle.handle(0, GCS, &request(0, 4, 7, 0, b"/params.txt\0"));
+    let open = replies(&mut vehicle, 0);
+    assert_eq!((open[0].opcode, open[0].session), (128, 7));
+    vehicle.handle(1, GCS, &request(1, 4, 7, 0, b"/params.txt\0"));
+    let second = replies(&mut vehicle, 1);
+    assert_eq!((second[0].opcode, second[0].session), (128, 0));
+    vehicle.handle(2, GCS, &request(2, 5, 7, 0, &[]));
+    let read = replies(&mut vehicle, 2);
+    assert_eq!((read[0].opcode, read[0].size), (128, 239));
+    assert_eq!(read[0].bytes(), &vehicle.fs.files["params.txt"][..239]);
+    vehicle.handle(3, GCS, &request(3, 5, 9, 0, &[]));
+    assert_eq!(replies(&mut vehicle, 3)[0].bytes(), [4]);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
     /// Any file read and written back through any lossy link arrives byte for byte.

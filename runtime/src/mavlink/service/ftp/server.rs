@@ -46,6 +46,10 @@ enum Mode {
 
 #[derive(Debug, Clone, Copy)]
 struct Session {
+    /// The number on the wire: the one the client asked for when it is free (pymavlink and
+    /// ArduPilot number sessions on the client's side), another otherwise (PX4 and MAVSDK
+    /// clients use the one the reply gives).
+    wire: u8,
     mode: Mode,
     used_us: u64,
 }
@@ -53,7 +57,9 @@ struct Session {
 #[derive(Debug, Clone, Copy)]
 struct Burst {
     to: Address,
+    /// The session's slot, and its number on the wire.
     session: u8,
+    wire: u8,
     seq: u16,
     offset: u32,
     end: u32,
@@ -157,7 +163,13 @@ impl<const S: usize> Server<S> {
         let reply = match self.serve(fs, now_us, from, op, &req) {
             Ok(Some(reply)) => reply,
             Ok(None) => return,
-            Err(why) => Payload::nak(&req, why),
+            Err(why) => {
+                // The offset asked for, so that a client can tell an end-of-file NAK of its
+                // read from a stale one (pymavlink does).
+                let mut nak = Payload::nak(&req, why);
+                nak.offset = req.offset;
+                nak
+            }
         };
         self.answer(from, &m.payload, now_us, reply);
     }
@@ -180,8 +192,8 @@ impl<const S: usize> Server<S> {
         let path = || req.path(0).filter(|p| !p.is_empty()).ok_or(Nak::Fail);
         match op {
             Opcode::TerminateSession => {
-                if usize::from(req.session) < S {
-                    self.close(fs, req.session);
+                if let Some(slot) = self.slot_of(req.session) {
+                    self.close(fs, slot);
                 }
             }
             Opcode::ResetSessions => {
@@ -217,32 +229,40 @@ impl<const S: usize> Server<S> {
             }
             Opcode::OpenFileRO | Opcode::CreateFile | Opcode::OpenFileWO => {
                 let path = path()?;
-                let session = self.allocate(fs, now_us)?;
+                let slot = self.allocate(fs, now_us)?;
                 let opened = match op {
                     Opcode::OpenFileRO => fs
-                        .open_read(session, path)
+                        .open_read(slot, path)
                         .map(|size| (Mode::Read { size }, size)),
                     _ => fs
-                        .open_write(session, path, op == Opcode::CreateFile)
+                        .open_write(slot, path, op == Opcode::CreateFile)
                         .map(|size| (Mode::Write, size)),
                 };
                 let (mode, size) = opened?;
-                self.sessions[usize::from(session)] = Some(Session {
+                let wire = if self.slot_of(req.session).is_none() {
+                    req.session
+                } else {
+                    (0..=u8::MAX)
+                        .find(|&w| self.slot_of(w).is_none())
+                        .unwrap_or(slot)
+                };
+                self.sessions[usize::from(slot)] = Some(Session {
+                    wire,
                     mode,
                     used_us: now_us,
                 });
-                ack.session = session;
+                ack.session = wire;
                 if op != Opcode::CreateFile {
                     ack.set_bytes(&size.to_le_bytes());
                 }
             }
             Opcode::ReadFile => {
-                let size = self.reading(req.session, now_us)?;
+                let (slot, size) = self.reading(req.session, now_us)?;
                 if req.offset >= size {
                     return Err(Nak::Eof);
                 }
                 let want = chunk(req.size).min((size - req.offset) as usize);
-                let n = fs.read(req.session, req.offset, &mut ack.data[..want])?;
+                let n = fs.read(slot, req.offset, &mut ack.data[..want])?;
                 if n == 0 {
                     return Err(Nak::Eof);
                 }
@@ -250,13 +270,14 @@ impl<const S: usize> Server<S> {
                 ack.offset = req.offset;
             }
             Opcode::BurstReadFile => {
-                let size = self.reading(req.session, now_us)?;
+                let (slot, size) = self.reading(req.session, now_us)?;
                 if req.offset >= size {
                     return Err(Nak::Eof);
                 }
                 self.burst = Some(Burst {
                     to: from,
-                    session: req.session,
+                    session: slot,
+                    wire: req.session,
                     seq: req.seq.wrapping_add(1),
                     offset: req.offset,
                     end: size,
@@ -267,11 +288,11 @@ impl<const S: usize> Server<S> {
                 return Ok(None);
             }
             Opcode::WriteFile => {
-                match self.session(req.session, now_us) {
-                    Some(Mode::Write) => {}
+                let slot = match self.session(req.session, now_us) {
+                    Some((slot, Mode::Write)) => slot,
                     _ => return Err(Nak::InvalidSession),
-                }
-                fs.write(req.session, req.offset, req.bytes())?;
+                };
+                fs.write(slot, req.offset, req.bytes())?;
                 ack.offset = req.offset;
             }
             Opcode::RemoveFile => fs.remove_file(path()?)?,
@@ -294,15 +315,27 @@ impl<const S: usize> Server<S> {
         Ok(Some(ack))
     }
 
-    fn session(&mut self, session: u8, now_us: u64) -> Option<Mode> {
-        let s = self.sessions.get_mut(usize::from(session))?.as_mut()?;
-        s.used_us = now_us;
-        Some(s.mode)
+    /// The slot of the open session numbered `wire`.
+    fn slot_of(&self, wire: u8) -> Option<u8> {
+        let slot = self
+            .sessions
+            .iter()
+            .position(|s| s.is_some_and(|s| s.wire == wire))?;
+        Some(slot as u8)
     }
 
-    fn reading(&mut self, session: u8, now_us: u64) -> Result<u32, Nak> {
-        match self.session(session, now_us) {
-            Some(Mode::Read { size }) => Ok(size),
+    /// The slot and mode of the open session numbered `wire`, marked used now.
+    fn session(&mut self, wire: u8, now_us: u64) -> Option<(u8, Mode)> {
+        let slot = self.slot_of(wire)?;
+        let s = self.sessions[usize::from(slot)].as_mut()?;
+        s.used_us = now_us;
+        Some((slot, s.mode))
+    }
+
+    /// The slot and file size of the session numbered `wire`, open for reading.
+    fn reading(&mut self, wire: u8, now_us: u64) -> Result<(u8, u32), Nak> {
+        match self.session(wire, now_us) {
+            Some((slot, Mode::Read { size })) => Ok((slot, size)),
             _ => Err(Nak::InvalidSession),
         }
     }
@@ -355,7 +388,7 @@ impl<const S: usize> Server<S> {
         }
         let req = Payload::request(
             b.seq.wrapping_sub(1),
-            b.session,
+            b.wire,
             Opcode::BurstReadFile,
             b.offset,
         );
