@@ -18,3 +18,20 @@ proptest! {
         scripts::check_servers(&script);
     }
 }
+
+/// Found by the `mavlink_services` fuzz target: a CRC-32 of a file that does not exist made the
+/// FTP server close a session it never opened.
+#[test]
+fn a_crc_of_a_missing_file_closes_nothing() {
+    let script = hex(
+        "0101011101004000000000001401012e01010101105b0e10ffc400011101004000000000001111f606ffff",
+    );
+    scripts::check_servers(&script);
+}
+
+fn hex(s: &str) -> Vec<u8> {
+    (0..s.len())
+        .step_by(2)
+        .map(|i| u8::from_str_radix(&s[i..i + 2], 16).expect("hex"))
+        .collect()
+}

@@ -305,10 +305,8 @@ impl<const S: usize> Server<S> {
             }
             Opcode::CalcFileCRC32 => {
                 let path = path()?;
-                let session = self.allocate(fs, now_us)?;
-                let crc = crc_of(fs, session, path);
-                fs.close(session);
-                ack.set_bytes(&crc?.to_le_bytes());
+                let slot = self.allocate(fs, now_us)?;
+                ack.set_bytes(&crc_of(fs, slot, path)?.to_le_bytes());
             }
             Opcode::None | Opcode::Ack | Opcode::Nak => return Ok(None),
         }
@@ -440,9 +438,15 @@ fn chunk(size: u8) -> usize {
     }
 }
 
-/// The CRC-32 of file `path`, read through `session`.
+/// The CRC-32 of file `path`, read through the free slot `session` and closed again.
 fn crc_of<F: FileSystem + ?Sized>(fs: &mut F, session: u8, path: &str) -> Result<u32, Nak> {
     let size = fs.open_read(session, path)?;
+    let crc = crc_open(fs, session, size);
+    fs.close(session);
+    crc
+}
+
+fn crc_open<F: FileSystem + ?Sized>(fs: &mut F, session: u8, size: u32) -> Result<u32, Nak> {
     let mut digest = crate::crc::FTP_CRC32.digest();
     let mut buf = [0; MAX_DATA];
     let mut at = 0u32;
