@@ -385,7 +385,11 @@ fn mavsdk(loss: u32, root: &Path, workdir: &Path) -> Option<Vec<Outcome>> {
 fn cell(o: &Outcome) -> String {
     match o {
         Ok(s) => format!("{s:.2} s"),
-        Err((s, e)) => format!("failed after {s:.1} s ({e})"),
+        Err((s, e)) => {
+            // MAVSDK's errors repeat every argument; the reason comes first.
+            let reason: String = e.split(';').next().unwrap_or(e).chars().take(60).collect();
+            format!("failed after {s:.1} s ({reason})")
+        }
     }
 }
 

@@ -9,7 +9,7 @@ QEMU must already run the firmware with its UART on TCP 127.0.0.1:PORT
 firmware through it only: MAVSDK, our CLI and pymavlink are UDP peers of the router.
 
 Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M failed``; the
-exit status is 1 on any failure):
+exit status is 1 on any failure; a router that does not connect fails the run at once):
 
   heartbeat       HEARTBEAT from system 1, component 1: a quadrotor, generic autopilot,
                   MAVLink 2, about 1 Hz against the host's clock (SysTick in QEMU).

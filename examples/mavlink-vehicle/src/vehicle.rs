@@ -77,6 +77,7 @@ impl Vehicle {
                 own: OWN,
                 encoding: Encoding::for_autopilot(MavAutopilot::Generic),
                 list_interval_us: 0,
+                hash_check: false,
             }),
             param_store,
             missions: mission::Server::new(mission::ServerConfig::new(OWN)),

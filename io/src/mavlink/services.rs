@@ -110,6 +110,9 @@ pub struct ParamList {
     pub count: u16,
     /// The values by index; `None` where one never came.
     pub values: Vec<Option<Received>>,
+    /// The target's `_HASH_CHECK` (PX4's; [`param::hash`]), if it sent one: the key for
+    /// [`Remote::refresh_params`].
+    pub hash: Option<u32>,
 }
 
 impl ParamList {
@@ -281,6 +284,7 @@ impl<'c> Remote<'c> {
         let mut list = ParamList {
             count: 0,
             values: Vec::new(),
+            hash: None,
         };
         self.run_param(&mut client, Some(timeout), |r| {
             if r.index >= r.count {
@@ -293,7 +297,46 @@ impl<'c> Remote<'c> {
             list.values[usize::from(r.index)] = Some(*r);
             on_value(r);
         })?;
+        list.hash = client.announced_hash();
         Ok(list)
+    }
+
+    /// Brings `cache` up to date: when the target's `_HASH_CHECK` is `cache.hash`, it stops
+    /// the target's list and leaves `cache` as it is (`false`); otherwise it fetches every
+    /// parameter into `cache` (`true`), as [`Remote::fetch_params`] does. A target without
+    /// `_HASH_CHECK` is always fetched.
+    pub fn refresh_params(&mut self, cache: &mut ParamList, timeout: Duration) -> io::Result<bool> {
+        let Some(hash) = cache.hash.filter(|_| cache.missing() == 0) else {
+            *cache = self.fetch_params(timeout, |_| {})?;
+            return Ok(true);
+        };
+        let mut client = self.param_client();
+        let _ = client.list_unless(hash);
+        let mut list = ParamList {
+            count: 0,
+            values: Vec::new(),
+            hash: None,
+        };
+        let event = self.run_param(&mut client, Some(timeout), |r| {
+            if r.index >= r.count {
+                return;
+            }
+            if r.count != list.count {
+                list.count = r.count;
+                list.values = vec![None; usize::from(r.count)];
+            }
+            list.values[usize::from(r.index)] = Some(*r);
+        })?;
+        // The stop goes out before this returns.
+        while let Some(m) = client.poll_transmit(self.now_us()) {
+            self.send(&m)?;
+        }
+        if let Some(param::Event::Unchanged { .. }) = event {
+            return Ok(false);
+        }
+        list.hash = client.announced_hash();
+        *cache = list;
+        Ok(true)
     }
 
     /// Reads the parameter called `name`; `None` if nothing answered.

@@ -186,6 +186,8 @@ fn serve(
         own,
         encoding: Encoding::for_autopilot(config.autopilot),
         list_interval_us: 0,
+        // As PX4 does, for clients that cache the parameters.
+        hash_check: config.autopilot == MavAutopilot::Px4,
     });
     let mut commands: command::Server<8> = command::Server::new(command::ServerConfig::new(own));
     let mut missions = mission::Server::new(mission::ServerConfig::new(own));

@@ -270,6 +270,7 @@ pub fn check_servers(data: &[u8]) {
         own: OWN,
         encoding,
         list_interval_us: 0,
+        hash_check: data.first().is_some_and(|b| b & 2 == 2),
     });
     let mut command_server: command::Server<3> =
         command::Server::new(command::ServerConfig::new(OWN));

@@ -254,6 +254,45 @@ fn finish_list(sim: &mut Sim, gcs: &mut Gcs, vehicle: &mut Vehicle) {
 }
 
 #[test]
+fn a_cached_copy_with_the_same_hash_check_stops_the_list() {
+    let (mut gcs, mut vehicle) = pair(300, Encoding::Bytewise);
+    let mut config = *vehicle.server.config();
+    config.hash_check = true;
+    vehicle.server = Server::new(config);
+    // A first list announces the hash and still brings every value.
+    list(3, Faults::CLEAN, &mut gcs, &mut vehicle);
+    let hash = gcs.client.announced_hash().expect("a _HASH_CHECK");
+    assert_eq!(
+        hash,
+        ferrolink_runtime::mavlink::service::param::hash::hash(&vehicle.params[..])
+    );
+    // With the same hash cached, the list stops at the hash: only what the stream sent in the
+    // round trip before the stop arrived (10 ms at a value per 200 µs) goes out.
+    gcs.got.clear();
+    gcs.events.clear();
+    let mut sim = Sim::new(4, Faults::CLEAN);
+    gcs.client.list_unless(hash).unwrap();
+    let ended = sim.run(&mut gcs, &mut vehicle, 10_000_000, |g, _| {
+        !g.events.is_empty()
+    });
+    assert!(ended);
+    assert_eq!(gcs.events, [Event::Unchanged { count: 300, hash }]);
+    sim.run(&mut gcs, &mut vehicle, sim.now_us + 1_000_000, |_, _| false);
+    assert!(
+        gcs.got.len() <= 55,
+        "{} values after the stop",
+        gcs.got.len()
+    );
+    // A changed parameter changes the hash: the list runs in full.
+    vehicle.params[7].value = Value::F32(1234.5);
+    gcs.got.clear();
+    gcs.events.clear();
+    gcs.client.list_unless(hash).unwrap();
+    finish_list(&mut sim, &mut gcs, &mut vehicle);
+    assert_ne!(gcs.client.announced_hash(), Some(hash));
+}
+
+#[test]
 fn a_clean_list_needs_no_re_requests() {
     for encoding in [Encoding::Bytewise, Encoding::CCast] {
         let (mut gcs, mut vehicle) = pair(300, encoding);

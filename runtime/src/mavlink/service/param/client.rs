@@ -17,10 +17,20 @@ pub enum Event {
         /// Values never received.
         missing: u16,
     },
+    /// The target's `_HASH_CHECK` equals the hash given to [`Client::list_unless`]: the list
+    /// was stopped, the caller's cached copy is current.
+    Unchanged {
+        /// The target's parameter count.
+        count: u16,
+        /// The hash.
+        hash: u32,
+    },
     /// The answer to a read, `None` after the retries.
     Read(Option<Received>),
     /// What the target reports after a set, `None` after the retries. The set took only if
-    /// the reported value is exactly the one sent ([`Value::same`]).
+    /// the reported value is exactly the one sent ([`Value::same`]). An answer with another
+    /// value is asked for again once (it may be a list stream's, sent before the set arrived),
+    /// and the second answer is final.
     Set(Option<Received>),
 }
 
@@ -102,6 +112,14 @@ pub struct Client<const W: usize> {
     /// The last stream value's arrival, and the smoothed gap between values (µs).
     last_value_us: Option<u64>,
     gap_us: u64,
+    /// The hash of the caller's cached copy, while listing with [`Client::list_unless`].
+    cached: Option<u32>,
+    /// The target's `_HASH_CHECK` in the current list, if it sent one.
+    announced: Option<u32>,
+    /// A PARAM_SET `_HASH_CHECK` to send, stopping the target's list.
+    stop_due: Option<u32>,
+    /// A set's first answer, when it held another value than the one set.
+    set_mismatch: Option<Received>,
 }
 
 impl<const W: usize> Client<W> {
@@ -124,6 +142,10 @@ impl<const W: usize> Client<W> {
             reads: [None; 8],
             last_value_us: None,
             gap_us: 0,
+            cached: None,
+            announced: None,
+            stop_due: None,
+            set_mismatch: None,
         }
     }
 
@@ -169,6 +191,7 @@ impl<const W: usize> Client<W> {
         self.sent_us = None;
         self.reads = [None; 8];
         self.last_value_us = None;
+        self.set_mismatch = None;
         Ok(())
     }
 
@@ -177,6 +200,8 @@ impl<const W: usize> Client<W> {
     pub fn list(&mut self) -> Result<(), Busy> {
         self.have = [0; W];
         self.held = 0;
+        self.cached = None;
+        self.announced = None;
         self.start(Op::List {
             count: None,
             filling: false,
@@ -184,6 +209,21 @@ impl<const W: usize> Client<W> {
             in_flight: 0,
             request_due: true,
         })
+    }
+
+    /// Fetches every parameter unless the target's `_HASH_CHECK` (PX4's, see
+    /// [`super::hash`]) is `hash`, the hash of the caller's cached copy: then the target is told
+    /// to stop its list and [`Event::Unchanged`] ends the operation. A target without
+    /// `_HASH_CHECK` lists as for [`Client::list`].
+    pub fn list_unless(&mut self, hash: u32) -> Result<(), Busy> {
+        self.list()?;
+        self.cached = Some(hash);
+        Ok(())
+    }
+
+    /// The `_HASH_CHECK` the target sent in the current or last list, if any.
+    pub fn announced_hash(&self) -> Option<u32> {
+        self.announced
     }
 
     /// Reads the parameter called `name`.
@@ -241,6 +281,20 @@ impl<const W: usize> Client<W> {
             Message::ParamValue(v) => v,
             _ => return None,
         };
+        if super::hash::is_hash_check(&v.param_id) {
+            let hash = v.param_value.to_bits();
+            if let Op::List { .. } = self.op {
+                self.announced = Some(hash);
+                if self.cached == Some(hash) {
+                    self.stop_due = Some(hash);
+                    self.finish(Event::Unchanged {
+                        count: v.param_count,
+                        hash,
+                    });
+                }
+            }
+            return None;
+        }
         let received = Received {
             name: v.param_id,
             index: v.param_index,
@@ -304,9 +358,17 @@ impl<const W: usize> Client<W> {
                     self.finish(Event::Read(Some(received)));
                 }
             }
-            Op::Set { name, .. } => {
+            Op::Set { name, value } => {
                 if received.name == name {
-                    self.finish(Event::Set(Some(received)));
+                    let took = received.value.is_some_and(|v| v.same(value));
+                    if took || self.set_mismatch.is_some() {
+                        self.finish(Event::Set(Some(received)));
+                    } else {
+                        // Another value: a refusal, or a list stream's value sent before the
+                        // set arrived. Ask once more at once; a second answer is final.
+                        self.set_mismatch = Some(received);
+                        self.deadline = Some(now_us);
+                    }
                 }
             }
         }
@@ -332,6 +394,9 @@ impl<const W: usize> Client<W> {
 
     /// The next request to send. Call until `None`.
     pub fn poll_transmit(&mut self, now_us: u64) -> Option<Message> {
+        if let Some(hash) = self.stop_due.take() {
+            return Some(super::hash::stop(self.target, hash));
+        }
         let timeout_us = self.timeout_us();
         let due = self.deadline.is_none_or(|d| now_us >= d);
         let silent_us = now_us.saturating_sub(*self.silent_since.get_or_insert(now_us));
@@ -346,7 +411,7 @@ impl<const W: usize> Client<W> {
                 return None;
             }
             Op::Set { .. } if exhausted => {
-                self.finish(Event::Set(None));
+                self.finish(Event::Set(self.set_mismatch));
                 return None;
             }
             Op::Read { name, index } => read_message(target, &name, index),
@@ -454,6 +519,9 @@ impl<const W: usize> Client<W> {
 
     /// When [`Client::poll_transmit`] has something to do next, if nothing arrives first.
     pub fn poll_timeout(&self) -> Option<u64> {
+        if self.stop_due.is_some() {
+            return Some(0);
+        }
         match self.op {
             Op::Idle => None,
             Op::List {

@@ -13,6 +13,7 @@
 //! [`Server`] answers from a [`Store`] the caller implements (a slice of [`Param`] is one).
 
 mod client;
+pub mod hash;
 mod server;
 
 pub use client::{Client, ClientConfig, Event};

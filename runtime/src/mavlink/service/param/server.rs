@@ -14,6 +14,9 @@ pub struct ServerConfig {
     /// The least time between two values of a list stream (µs); 0 sends as fast as the caller
     /// polls.
     pub list_interval_us: u64,
+    /// Sends PX4's `_HASH_CHECK` first in every list, and stops the list when a client answers
+    /// that its cache has that hash ([`super::hash`]). Off by default.
+    pub hash_check: bool,
 }
 
 impl ServerConfig {
@@ -23,6 +26,7 @@ impl ServerConfig {
             own,
             encoding: Encoding::Bytewise,
             list_interval_us: 0,
+            hash_check: false,
         }
     }
 }
@@ -35,6 +39,8 @@ pub struct Server<const Q: usize> {
     /// The next index of a list stream.
     list_next: Option<u16>,
     list_due_us: u64,
+    /// The `_HASH_CHECK` of a list is still to go.
+    hash_due: bool,
     queue: [u16; Q],
     queued: usize,
     dropped: usize,
@@ -47,6 +53,7 @@ impl<const Q: usize> Server<Q> {
             config,
             list_next: None,
             list_due_us: 0,
+            hash_due: false,
             queue: [0; Q],
             queued: 0,
             dropped: 0,
@@ -92,6 +99,7 @@ impl<const Q: usize> Server<Q> {
             {
                 self.list_next = Some(0);
                 self.list_due_us = now_us;
+                self.hash_due = self.config.hash_check;
             }
             Message::ParamRequestRead(m)
                 if own.is_addressed_by(m.target_system, m.target_component) =>
@@ -104,6 +112,15 @@ impl<const Q: usize> Server<Q> {
                 if let Some(i) = index {
                     self.enqueue(i);
                 }
+            }
+            Message::ParamSet(m)
+                if self.config.hash_check
+                    && own.is_addressed_by(m.target_system, m.target_component)
+                    && super::hash::is_hash_check(&m.param_id) =>
+            {
+                // The client's cache is right: the rest of the list would tell it nothing.
+                self.list_next = None;
+                self.hash_due = false;
             }
             Message::ParamSet(m) if own.is_addressed_by(m.target_system, m.target_component) => {
                 let Some(i) = store.index_of(&m.param_id) else {
@@ -138,6 +155,11 @@ impl<const Q: usize> Server<Q> {
         let next = self.list_next?;
         if now_us < self.list_due_us {
             return None;
+        }
+        if self.hash_due {
+            self.hash_due = false;
+            self.list_due_us = now_us.saturating_add(self.config.list_interval_us);
+            return Some(super::hash::announce(super::hash::hash(store), count));
         }
         if next >= count {
             self.list_next = None;

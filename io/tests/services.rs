@@ -1,0 +1,127 @@
+//! The blocking client against the software vehicle, in one process over loopback UDP:
+//! parameters with PX4's `_HASH_CHECK`, and files over FTP.
+
+use std::net::UdpSocket;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
+
+use ferrolink_io::mavlink::services::{self, Remote};
+use ferrolink_io::mavlink::{vehicle, Connection};
+use ferrolink_runtime::mavlink::service::messages::{MavAutopilot, MavType};
+use ferrolink_runtime::mavlink::service::param::{Name, Param, Value};
+use ferrolink_runtime::mavlink::service::Address;
+
+fn free_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// A PX4 vehicle with 40 parameters and `root` as its FTP root, on a thread until `stop`.
+fn vehicle(root: &std::path::Path, stop: &Arc<AtomicBool>) -> (u16, std::thread::JoinHandle<()>) {
+    let port = free_port();
+    let config = vehicle::Config {
+        address: Address::new(1, 1),
+        autopilot: MavAutopilot::Px4,
+        kind: MavType::Quadrotor,
+        params: (0..40)
+            .map(|i| Param {
+                name: Name::from(format!("P{i}").as_str()),
+                value: if i % 2 == 0 {
+                    Value::I32(i * 3)
+                } else {
+                    Value::F32(i as f32 / 4.0)
+                },
+            })
+            .collect(),
+        table: services::TABLE.into(),
+        ftp_root: Some(root.to_path_buf()),
+    };
+    let stop = stop.clone();
+    let endpoint = format!("udpin://127.0.0.1:{port}");
+    let thread = std::thread::spawn(move || {
+        vehicle::run(
+            &config,
+            &[endpoint],
+            Some(Duration::from_secs(60)),
+            &stop,
+            || {},
+        )
+        .expect("the vehicle runs");
+    });
+    (port, thread)
+}
+
+#[test]
+fn a_cached_parameter_list_is_kept_while_the_hash_check_is_unchanged() {
+    let root = tempfile::tempdir().unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let (port, thread) = vehicle(root.path(), &stop);
+    let mut link =
+        Connection::open(&format!("udpout://127.0.0.1:{port}"), services::TABLE).unwrap();
+    let peer = services::wait_for_vehicle(&mut link, Duration::from_secs(10))
+        .unwrap()
+        .expect("the vehicle");
+    let mut remote = Remote::new(&mut link, peer);
+    let mut cache = remote
+        .fetch_params(Duration::from_secs(10), |_| {})
+        .unwrap();
+    assert_eq!((cache.count, cache.missing()), (40, 0));
+    assert!(cache.hash.is_some(), "a PX4 vehicle announces _HASH_CHECK");
+    let before = cache.clone();
+    assert!(!remote
+        .refresh_params(&mut cache, Duration::from_secs(10))
+        .unwrap());
+    assert_eq!(cache, before);
+    let set = remote.set_param("P3", Value::F32(99.5)).unwrap().unwrap();
+    assert_eq!(set.value, Some(Value::F32(99.5)));
+    assert!(remote
+        .refresh_params(&mut cache, Duration::from_secs(10))
+        .unwrap());
+    assert_ne!(cache.hash, before.hash);
+    assert_eq!(cache.values[3].unwrap().value, Some(Value::F32(99.5)));
+    stop.store(true, Ordering::Relaxed);
+    thread.join().unwrap();
+}
+
+#[test]
+fn files_go_both_ways_and_stay_inside_the_root() {
+    let root = tempfile::tempdir().unwrap();
+    std::fs::create_dir(root.path().join("logs")).unwrap();
+    let data: Vec<u8> = (0..70_000u32).map(|i| (i * 7 + i / 300) as u8).collect();
+    std::fs::write(root.path().join("logs/a.bin"), &data).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let (port, thread) = vehicle(root.path(), &stop);
+    let mut link =
+        Connection::open(&format!("udpout://127.0.0.1:{port}"), services::TABLE).unwrap();
+    let peer = services::wait_for_vehicle(&mut link, Duration::from_secs(10))
+        .unwrap()
+        .expect("the vehicle");
+    let mut remote = Remote::new(&mut link, peer);
+    let names: Vec<String> = remote
+        .ftp_list("/")
+        .unwrap()
+        .into_iter()
+        .map(|e| e.name)
+        .collect();
+    assert_eq!(names, ["logs"]);
+    assert_eq!(remote.ftp_get("/logs/a.bin", |_, _| {}).unwrap(), data);
+    let up: Vec<u8> = data.iter().rev().copied().collect();
+    remote.ftp_put("/logs/b.bin", &up, |_, _| {}).unwrap();
+    assert_eq!(std::fs::read(root.path().join("logs/b.bin")).unwrap(), up);
+    let crc = remote.ftp_crc32("/logs/b.bin").unwrap();
+    assert_eq!(crc, ferrolink_runtime::crc::FTP_CRC32.checksum(&up));
+    remote.ftp_remove("/logs/b.bin").unwrap();
+    assert!(!root.path().join("logs/b.bin").exists());
+    let escape = remote.ftp_put("/../outside.bin", b"no", |_, _| {});
+    assert_eq!(
+        escape.unwrap_err().kind(),
+        std::io::ErrorKind::PermissionDenied
+    );
+    let missing = remote.ftp_get("/nope", |_, _| {});
+    assert_eq!(missing.unwrap_err().kind(), std::io::ErrorKind::NotFound);
+    stop.store(true, Ordering::Relaxed);
+    thread.join().unwrap();
+}
