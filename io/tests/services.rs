@@ -125,3 +125,53 @@ fn files_go_both_ways_and_stay_inside_the_root() {
     stop.store(true, Ordering::Relaxed);
     thread.join().unwrap();
 }
+
+#[cfg(feature = "tokio")]
+#[test]
+fn the_async_client_does_what_the_blocking_one_does() {
+    use ferrolink_io::mavlink::services::AsyncRemote;
+    use ferrolink_runtime::mavlink::service::command::Command;
+    use ferrolink_runtime::mavlink::service::messages::{MavCmd, MavMissionType, MavResult};
+    use ferrolink_runtime::mavlink::service::mission::Item;
+
+    let root = tempfile::tempdir().unwrap();
+    std::fs::write(root.path().join("f.txt"), b"hello").unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let (port, thread) = vehicle(root.path(), &stop);
+    let mut link =
+        Connection::open(&format!("udpout://127.0.0.1:{port}"), services::TABLE).unwrap();
+    let peer = services::wait_for_vehicle(&mut link, Duration::from_secs(10))
+        .unwrap()
+        .expect("the vehicle");
+    let remote = AsyncRemote::new(link, peer);
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .build()
+        .unwrap();
+    runtime.block_on(async {
+        // Two at once take turns on the connection.
+        let (params, file) = tokio::join!(
+            remote.fetch_params(Duration::from_secs(10)),
+            remote.ftp_get("/f.txt".into())
+        );
+        assert_eq!(params.unwrap().missing(), 0);
+        assert_eq!(file.unwrap(), b"hello");
+        let arm = Command::long(
+            MavCmd::ComponentArmDisarm,
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        let ack = remote.command(arm).await.unwrap().expect("an answer");
+        assert_eq!(ack.result, MavResult::Accepted);
+        let items = vec![Item::default(); 12];
+        remote
+            .upload_mission(MavMissionType::Mission, items.clone())
+            .await
+            .unwrap();
+        let back = remote
+            .download_mission(MavMissionType::Mission)
+            .await
+            .unwrap();
+        assert_eq!(back.map(|b| b.len()), Some(12));
+    });
+    stop.store(true, Ordering::Relaxed);
+    thread.join().unwrap();
+}

@@ -475,3 +475,108 @@ impl mission::Items for Items {
         }
     }
 }
+
+/// The client from async code (feature `tokio`; any runtime, or none: the futures wait on
+/// tokio's channels only). Each operation runs [`Remote`]'s blocking client on a thread of its
+/// own and the future waits for its answer, so a slow or lossy link never blocks the executor.
+/// Operations on one `AsyncRemote` take turns on its connection; one whose future is dropped
+/// still runs to its end before the next starts.
+///
+/// ```no_run
+/// # async fn example() -> std::io::Result<()> {
+/// use std::time::Duration;
+/// use ferrolink_io::mavlink::services::{self, AsyncRemote};
+/// use ferrolink_io::mavlink::Connection;
+///
+/// let mut link = Connection::open("udpin://0.0.0.0:14550", services::TABLE)?;
+/// let vehicle = services::wait_for_vehicle(&mut link, Duration::from_secs(5))?
+///     .expect("no vehicle");
+/// let remote = AsyncRemote::new(link, vehicle);
+/// let params = remote.fetch_params(Duration::from_secs(30)).await?;
+/// let log = remote.run(|r| r.ftp_get("/logs/flight.bin", |_, _| {})).await?;
+/// # Ok(()) }
+/// ```
+#[cfg(feature = "tokio")]
+#[derive(Debug, Clone)]
+pub struct AsyncRemote {
+    link: std::sync::Arc<std::sync::Mutex<Connection>>,
+    target: Peer,
+}
+
+#[cfg(feature = "tokio")]
+impl AsyncRemote {
+    /// `target` through `link`.
+    pub fn new(link: Connection, target: Peer) -> Self {
+        Self {
+            link: std::sync::Arc::new(std::sync::Mutex::new(link)),
+            target,
+        }
+    }
+
+    /// The target.
+    pub fn target(&self) -> Peer {
+        self.target
+    }
+
+    /// Runs `op` on a [`Remote`] for the target, on a thread of its own; any of its
+    /// operations, with progress callbacks that are `Send`.
+    pub async fn run<T, F>(&self, op: F) -> io::Result<T>
+    where
+        T: Send + 'static,
+        F: FnOnce(&mut Remote<'_>) -> io::Result<T> + Send + 'static,
+    {
+        let (tx, rx) = tokio::sync::oneshot::channel();
+        let (link, target) = (self.link.clone(), self.target);
+        std::thread::Builder::new()
+            .name("ferrolink-services".into())
+            .spawn(move || {
+                let mut link = link
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                let mut remote = Remote::new(&mut link, target);
+                let _ = tx.send(op(&mut remote));
+            })?;
+        rx.await
+            .map_err(|_| io::Error::other("the operation's thread ended without an answer"))?
+    }
+
+    /// [`Remote::fetch_params`].
+    pub async fn fetch_params(&self, timeout: Duration) -> io::Result<ParamList> {
+        self.run(move |r| r.fetch_params(timeout, |_| {})).await
+    }
+
+    /// [`Remote::set_param`].
+    pub async fn set_param(&self, name: String, value: Value) -> io::Result<Option<Received>> {
+        self.run(move |r| r.set_param(&name, value)).await
+    }
+
+    /// [`Remote::command`].
+    pub async fn command(&self, command: Command) -> io::Result<Option<Ack>> {
+        self.run(move |r| r.command(command, |_| {})).await
+    }
+
+    /// [`Remote::upload_mission`].
+    pub async fn upload_mission(
+        &self,
+        kind: MavMissionType,
+        items: Vec<Item>,
+    ) -> io::Result<Option<MavMissionResult>> {
+        self.run(move |r| r.upload_mission(kind, &items, |_, _| {}))
+            .await
+    }
+
+    /// [`Remote::download_mission`].
+    pub async fn download_mission(&self, kind: MavMissionType) -> io::Result<Option<Vec<Item>>> {
+        self.run(move |r| r.download_mission(kind, |_, _| {})).await
+    }
+
+    /// [`Remote::ftp_get`].
+    pub async fn ftp_get(&self, path: String) -> io::Result<Vec<u8>> {
+        self.run(move |r| r.ftp_get(&path, |_, _| {})).await
+    }
+
+    /// [`Remote::ftp_put`].
+    pub async fn ftp_put(&self, path: String, data: Vec<u8>) -> io::Result<()> {
+        self.run(move |r| r.ftp_put(&path, &data, |_, _| {})).await
+    }
+}

@@ -143,7 +143,7 @@ impl FileSystem for Files {
         from: u32,
         out: &mut dyn FnMut(Entry<'_>) -> bool,
     ) -> Result<(), Nak> {
-        if path.trim_matches('/') != "" {
+        if !path.trim_matches('/').is_empty() {
             return Err(Nak::FileNotFound);
         }
         let all = [
