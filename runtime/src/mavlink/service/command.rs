@@ -36,7 +36,7 @@
 use super::messages::{
     CommandAck, CommandCancel, CommandInt, CommandLong, MavCmd, MavFrame, MavResult, Message,
 };
-use super::{earliest, round_i32, Address, Retry};
+use super::{div_f64, earliest, round_i32, Address, Retry};
 
 /// The two forms a command is sent in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -148,13 +148,14 @@ impl Command {
 
     /// The command in a COMMAND_INT.
     pub fn from_int(m: &CommandInt) -> Self {
-        let s = scale(m.frame);
+        let s = scale_int(m.frame);
         Self::int(
             m.command,
             m.frame,
             [m.param1, m.param2, m.param3, m.param4],
-            f64::from(m.x) / s,
-            f64::from(m.y) / s,
+            // f64::from(m.x) / scale(m.frame), in integers.
+            div_f64(m.x, s),
+            div_f64(m.y, s),
             m.z,
         )
     }
@@ -177,16 +178,21 @@ impl Command {
 
 /// The factor between COMMAND_INT's integer x and y and the frame's units: 10⁷ for global
 /// frames (degrees), 10⁴ for local frames (metres), 1 for the rest (MAV_FRAME_MISSION).
+pub fn scale(frame: MavFrame) -> f64 {
+    f64::from(scale_int(frame))
+}
+
+/// [`scale`] as an integer.
 // The superseded `_INT` frames still arrive from older senders.
 #[allow(deprecated)]
-pub fn scale(frame: MavFrame) -> f64 {
+pub(crate) fn scale_int(frame: MavFrame) -> u32 {
     match frame {
         MavFrame::Global
         | MavFrame::GlobalRelativeAlt
         | MavFrame::GlobalInt
         | MavFrame::GlobalRelativeAltInt
         | MavFrame::GlobalTerrainAlt
-        | MavFrame::GlobalTerrainAltInt => 1e7,
+        | MavFrame::GlobalTerrainAltInt => 10_000_000,
         MavFrame::LocalNed
         | MavFrame::LocalEnu
         | MavFrame::LocalOffsetNed
@@ -194,8 +200,8 @@ pub fn scale(frame: MavFrame) -> f64 {
         | MavFrame::BodyOffsetNed
         | MavFrame::BodyFrd
         | MavFrame::LocalFrd
-        | MavFrame::LocalFlu => 1e4,
-        _ => 1.0,
+        | MavFrame::LocalFlu => 10_000,
+        _ => 1,
     }
 }
 

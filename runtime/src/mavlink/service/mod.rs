@@ -107,6 +107,107 @@ pub(crate) fn round_i32(v: f64) -> i32 {
     r as i32
 }
 
+// The servers' conversions between integers scaled by a frame (degrees × 10⁷, metres × 10⁴)
+// and floats, done with integers: a single-precision FPU such as the Cortex-M4's does `f64` in
+// software, some 4 kB of it in a firmware. Each gives exactly what the `f64` expression in its
+// description gives (the tests compare them).
+
+/// `round_i32(f64::from(v) * f64::from(s))`, for `s` below 2²⁴: the product of `v`'s 24-bit
+/// significand and `s` is exact in 48 bits, so it is rounded (half away from zero) and
+/// saturated as an integer. A NaN gives 0.
+pub(crate) fn mul_round(v: f32, s: u32) -> i32 {
+    let bits = v.to_bits();
+    let biased = (bits >> 23) & 0xff;
+    let frac = bits & 0x7f_ffff;
+    if biased == 0xff && frac != 0 {
+        return 0;
+    }
+    // |v| = m · 2^e
+    let (m, e) = match biased {
+        0 => (frac, -149),
+        _ => (frac | 0x80_0000, biased as i32 - 150),
+    };
+    let p = u64::from(m) * u64::from(s);
+    let magnitude = if biased == 0xff || e > 16 {
+        // Infinite, or at least 2⁴⁰.
+        u64::MAX
+    } else if e >= 0 {
+        p << e
+    } else if e < -62 {
+        0
+    } else {
+        (p + (1 << (-e - 1))) >> -e
+    };
+    if bits >> 31 == 0 {
+        magnitude.min(i32::MAX as u64) as i32
+    } else if magnitude > 1 << 31 {
+        i32::MIN
+    } else {
+        (magnitude as i64).wrapping_neg() as i32
+    }
+}
+
+/// `f64::from(n) / f64::from(d)` (to nearest, ties to even) for `d` from 1 to 2²⁴ − 1.
+pub(crate) fn div_f64(n: i32, d: u32) -> f64 {
+    if n == 0 {
+        return 0.0;
+    }
+    let (q, e, sticky) = quotient(n.unsigned_abs(), d);
+    let (m, carry) = round_bits(q, sticky, 53);
+    let biased = (e + i32::from(carry) + 1023) as u64;
+    let sign = u64::from(n < 0) << 63;
+    f64::from_bits(sign | biased << 52 | (m & ((1 << 52) - 1)))
+}
+
+/// `(f64::from(n) / f64::from(d)) as f32` for `d` from 1 to 2²⁴ − 1: the quotient rounded
+/// to `f64`'s 53 bits, then to `f32`'s 24.
+pub(crate) fn div_f32(n: i32, d: u32) -> f32 {
+    if n == 0 {
+        return 0.0;
+    }
+    let (q, e, sticky) = quotient(n.unsigned_abs(), d);
+    let (m, carry53) = round_bits(q, sticky, 53);
+    let (m, carry24) = round_bits(m << 11, false, 24);
+    let biased = (e + i32::from(carry53) + i32::from(carry24) + 127) as u32;
+    let sign = u32::from(n < 0) << 31;
+    f32::from_bits(sign | biased << 23 | (m as u32 & 0x7f_ffff))
+}
+
+/// `n / d` for `n` and `d` not 0 and `d` below 2²⁴, by long division a byte at a time: its
+/// leading 64 bits `q` (bit 63 set), the exponent `e` (the quotient is `q · 2^(e - 63)` and
+/// what is left over), and whether anything is left over.
+fn quotient(n: u32, d: u32) -> (u64, i32, bool) {
+    let mut q = u64::from(n / d);
+    let mut r = n % d;
+    let mut shift = 0;
+    // At least 56 bits: 53 and a rounding bit, whatever the leading zeros.
+    while q < 1 << 55 {
+        // r < d < 2²⁴: shifted by a byte, it still fits.
+        r <<= 8;
+        q = q << 8 | u64::from(r / d);
+        r %= d;
+        shift += 8;
+    }
+    let lz = q.leading_zeros();
+    (q << lz, 63 - lz as i32 - shift, r != 0)
+}
+
+/// `q` (bit 63 set) rounded to its `bits` leading bits, to nearest, ties to even (`sticky`:
+/// something below `q` is not zero): the significand (bit `bits - 1` set), and whether the
+/// rounding carried into the next power of two (the exponent goes up by one).
+fn round_bits(q: u64, sticky: bool, bits: u32) -> (u64, bool) {
+    const HALF: u64 = 1 << 63;
+    let m = q >> (64 - bits);
+    let rest = q << bits;
+    let up = rest > HALF || (rest == HALF && (sticky || m & 1 == 1));
+    let m = m + u64::from(up);
+    if m >> bits == 0 {
+        (m, false)
+    } else {
+        (m >> 1, true)
+    }
+}
+
 /// A round-trip time estimate, smoothed as TCP does (RFC 6298), so that a client's timeouts
 /// follow the link: short on a cable, long on a radio at range.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -189,7 +189,7 @@ impl Gaps {
     }
 
     /// Removes `[start, end)` from the ranges; whether any byte was missing. A range that
-    /// would split in two with no room left keeps its end part missing.
+    /// would split in two with no room left stays missing whole.
     fn fill(&mut self, start: u32, end: u32) -> bool {
         let mut any = false;
         let mut i = 0;
@@ -209,11 +209,14 @@ impl Gaps {
                 (true, false) => self.ranges[i].0 = end,
                 (false, true) => self.ranges[i].1 = start,
                 (false, false) => {
-                    self.ranges[i].1 = start;
+                    // Split in two; with no room for the second, the whole range stays
+                    // missing (read again later), never a part of it forgotten.
                     if !self.is_full() {
+                        self.ranges[i].1 = start;
                         self.ranges.copy_within(i + 1..self.len, i + 2);
                         self.ranges[i + 1] = (end, e);
                         self.len += 1;
+                        i += 1;
                     }
                 }
             }
@@ -562,9 +565,19 @@ impl Client {
             return;
         }
         let req_opcode = Opcode::from_u8(p.req_opcode);
-        if self.op == Op::Read(Phase::Burst) && req_opcode == Some(Opcode::BurstReadFile) {
+        if req_opcode == Some(Opcode::BurstReadFile) {
+            // A burst reply is answered data wherever it falls: one held back past its burst
+            // still fills a gap. It is never the answer to a read (its sequence number may
+            // be the one a read waits for).
             if p.session == self.session {
-                self.on_burst(now_us, &p, nak);
+                match self.op {
+                    Op::Read(Phase::Burst) => self.on_burst(now_us, &p, nak),
+                    Op::Read(Phase::Fill) if nak.is_none() => {
+                        self.take(p.offset, p.bytes());
+                        self.fill_done();
+                    }
+                    _ => {}
+                }
             }
             return;
         }
@@ -579,10 +592,22 @@ impl Client {
                 return;
             }
         }
-        let slot = self
-            .slots
-            .iter()
-            .position(|s| s.is_some_and(|s| s.seq.wrapping_add(1) == p.seq));
+        // The answer to a read or a write: its sequence number, the opcode answered, and for
+        // a read's data the offset asked (every server echoes it).
+        let expected = match self.op {
+            Op::Read(Phase::Fill) => Opcode::ReadFile,
+            Op::Write(Phase::Data) => Opcode::WriteFile,
+            _ => return,
+        };
+        if req_opcode != Some(expected) {
+            return;
+        }
+        let slot = self.slots.iter().position(|s| {
+            s.is_some_and(|s| {
+                s.seq.wrapping_add(1) == p.seq
+                    && (expected != Opcode::ReadFile || nak.is_some() || p.offset == s.offset)
+            })
+        });
         if let Some(i) = slot {
             let Some(s) = self.slots[i].take() else {
                 return;
@@ -652,6 +677,15 @@ impl Client {
         }
     }
 
+    /// Once the gaps are filled: the next burst, or the end.
+    fn fill_done(&mut self) {
+        if self.gaps.as_slice().is_empty() {
+            // Reads still out answer bytes already here.
+            self.slots = [None; SLOTS];
+            self.read_next();
+        }
+    }
+
     fn on_burst(&mut self, now_us: u64, p: &Payload, nak: Option<Nak>) {
         if let Some(nak) = nak {
             if nak == Nak::Eof && self.mark >= self.size {
@@ -681,9 +715,7 @@ impl Client {
         match (self.op, nak) {
             (Op::Read(Phase::Fill), None) => {
                 self.take(s.offset, p.bytes());
-                if self.gaps.as_slice().is_empty() && self.slots.iter().all(Option::is_none) {
-                    self.read_next();
-                }
+                self.fill_done();
             }
             (Op::Write(Phase::Data), None) => {
                 self.acked += u32::from(s.len);

@@ -25,9 +25,9 @@ mod server;
 pub use client::{Client, ClientConfig, Event};
 pub use server::{Server, ServerConfig};
 
-use super::command::scale;
+use super::command::scale_int;
 use super::messages::{MavCmd, MavFrame, MavMissionType, Message, MissionItem, MissionItemInt};
-use super::{round_i32, Address};
+use super::{div_f32, mul_round, Address};
 
 /// One mission item, as MISSION_ITEM_INT carries it.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -75,7 +75,7 @@ impl Item {
     /// As MISSION_ITEM: x and y as floats in the frame's units (degrees, metres).
     fn to_float(self, seq: u16, to: Address, mission_type: MavMissionType) -> Message {
         let [param1, param2, param3, param4] = self.params;
-        let s = scale(self.frame);
+        let s = scale_int(self.frame);
         Message::MissionItem(MissionItem {
             target_system: to.system,
             target_component: to.component,
@@ -88,8 +88,9 @@ impl Item {
             param2,
             param3,
             param4,
-            x: (f64::from(self.x) / s) as f32,
-            y: (f64::from(self.y) / s) as f32,
+            // (f64::from(self.x) / scale(self.frame)) as f32, in integers.
+            x: div_f32(self.x, s),
+            y: div_f32(self.y, s),
             z: self.z,
             mission_type,
         })
@@ -109,15 +110,16 @@ impl Item {
     }
 
     fn from_float(m: &MissionItem) -> Self {
-        let s = scale(m.frame);
+        let s = scale_int(m.frame);
         Self {
             frame: m.frame,
             command: m.command,
             current: m.current,
             autocontinue: m.autocontinue,
             params: [m.param1, m.param2, m.param3, m.param4],
-            x: round_i32(f64::from(m.x) * s),
-            y: round_i32(f64::from(m.y) * s),
+            // round_i32(f64::from(m.x) * scale(m.frame)), in integers.
+            x: mul_round(m.x, s),
+            y: mul_round(m.y, s),
             z: m.z,
         }
     }

@@ -161,12 +161,40 @@ impl Value {
         })
     }
 
-    /// This value as type `ty`, if the number is exactly representable there.
+    /// This value as type `ty`, if the number is exactly representable there (an integer in
+    /// range for the integer types; any number for REAL32, rounded to the nearest `f32`): what
+    /// `Value::from_f64(ty, self.as_f64())` gives.
+    ///
+    /// Done in `i64` and `f32`, without `f64`: a single-precision FPU (a Cortex-M4's) does
+    /// `f64` in software, kilobytes of it in a firmware that serves parameters.
     pub fn convert(self, ty: MavParamType) -> Option<Self> {
         if self.param_type() == ty {
             return Some(self);
         }
-        Self::from_f64(ty, self.as_f64())
+        let n = match self {
+            Value::U8(v) => i64::from(v),
+            Value::I8(v) => i64::from(v),
+            Value::U16(v) => i64::from(v),
+            Value::I16(v) => i64::from(v),
+            Value::U32(v) => i64::from(v),
+            Value::I32(v) => i64::from(v),
+            Value::F32(v) => f32_integer(v)?,
+        };
+        Some(match ty {
+            MavParamType::Uint8 => Value::U8(n.try_into().ok()?),
+            MavParamType::Int8 => Value::I8(n.try_into().ok()?),
+            MavParamType::Uint16 => Value::U16(n.try_into().ok()?),
+            MavParamType::Int16 => Value::I16(n.try_into().ok()?),
+            MavParamType::Uint32 => Value::U32(n.try_into().ok()?),
+            MavParamType::Int32 => Value::I32(n.try_into().ok()?),
+            // An integer of 32 bits or fewer (a REAL32 came back above): rounded to nearest,
+            // as through `f64` (which holds it exactly).
+            MavParamType::Real32 => Value::F32(match i32::try_from(n) {
+                Ok(i) => i as f32,
+                Err(_) => n as u32 as f32,
+            }),
+            _ => return None,
+        })
     }
 
     /// Equal type and bits (a NaN equals itself, 0.0 differs from -0.0).
@@ -175,6 +203,21 @@ impl Value {
             (Value::F32(a), Value::F32(b)) => a.to_bits() == b.to_bits(),
             (a, b) => a == b,
         }
+    }
+}
+
+/// `v` as an integer, if it is one and within `i32::MIN..=u32::MAX` (beyond, no integer type
+/// of PARAM_VALUE holds it). `as` saturates, so the round trip is exact only in range.
+fn f32_integer(v: f32) -> Option<i64> {
+    if v < 0.0 {
+        let i = v as i32;
+        (i as f32 == v).then_some(i64::from(i))
+    } else if v < 4_294_967_296.0 {
+        let u = v as u32;
+        (u as f32 == v).then_some(i64::from(u))
+    } else {
+        // Too large, or NaN.
+        None
     }
 }
 
