@@ -43,14 +43,18 @@ if .venv/bin/python -c 'import pymavlink' 2>/dev/null; then
   fi
 fi
 
-# Wireshark's tshark (with Lua 5.2), Lua 5.2 and 5.4 compilers, and Chromium, from Debian's
-# packages: for the generated dissectors' checks and the documentation site's browser check.
+# Wireshark's tshark (with Lua 5.2), Lua 5.2 and 5.4 compilers, Chromium and QEMU, from Debian's
+# packages: for the generated dissectors' checks, the documentation site's browser check and
+# the vehicle firmware's checks.
 # Without them (no root, no network) those checks are skipped and say so.
 missing=()
 command -v tshark >/dev/null 2>&1 || missing+=(tshark)
 command -v luac5.2 >/dev/null 2>&1 || missing+=(lua5.2)
 command -v luac5.4 >/dev/null 2>&1 || missing+=(lua5.4)
 command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+# QEMU's Cortex-M4 board and the ARM binutils, for the MAVLink vehicle firmware's checks.
+command -v qemu-system-arm >/dev/null 2>&1 || missing+=(qemu-system-arm)
+command -v arm-none-eabi-nm >/dev/null 2>&1 || missing+=(binutils-arm-none-eabi)
 # A TrueType font for `ferrolink mavlink stats --plot FILE.png`.
 dejavu=/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf
 [ -f "$dejavu" ] || missing+=(fonts-dejavu-core)

@@ -18,7 +18,9 @@
 //! The work, after each ground station has found its vehicle: fetch 1,000 parameters (INT32
 //! and REAL32, the types MAVSDK lists), upload a 500-item mission, download it, read a 1 MiB
 //! file over FTP (MAVSDK with burst reads). Each result is checked (the count, the bytes) and
-//! each operation is given 180 s. Times are wall clock, one run each.
+//! each operation is given 180 s. A mission transfer that gives up is started again: ours up
+//! to three times (what `Remote` does), MAVSDK's up to five (by the driver), and the time is
+//! that of all attempts. Times are wall clock, one run each.
 
 #[allow(dead_code)]
 mod harness;

@@ -102,12 +102,27 @@ async def client(a):
 
         mission = MissionRawAsync(system)
 
+        # A mission transfer is tried again from the start when MAVSDK gives it up, up to
+        # five times (ours tries three), so the download has a mission to fetch and the time is
+        # that of getting the job done.
         async def upload():
-            await mission.upload_mission(items(a.items))
+            for attempt in range(5):
+                try:
+                    await mission.upload_mission(items(a.items))
+                    return None
+                except Exception as e:  # MAVSDK's error: try again
+                    err = "%d attempts, the last: %s" % (attempt + 1, str(e).split(";")[0])
+            return err
 
         async def download():
-            got = await mission.download_mission()
-            return None if len(got) == a.items else "%d of %d items" % (len(got), a.items)
+            for attempt in range(5):
+                try:
+                    got = await mission.download_mission()
+                except Exception as e:  # MAVSDK's error: try again
+                    err = "%d attempts, the last: %s" % (attempt + 1, str(e).split(";")[0])
+                    continue
+                return None if len(got) == a.items else "%d of %d items" % (len(got), a.items)
+            return err
 
         async def ftp_read():
             local = os.path.join(a.workdir, "mavsdk-read")
