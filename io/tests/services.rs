@@ -54,16 +54,22 @@ fn vehicle(root: &std::path::Path, stop: &Arc<AtomicBool>) -> (u16, std::thread:
     (port, thread)
 }
 
-#[test]
-fn a_cached_parameter_list_is_kept_while_the_hash_check_is_unchanged() {
-    let root = tempfile::tempdir().unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let (port, thread) = vehicle(root.path(), &stop);
+/// A connection to the vehicle on `port`, and the vehicle as found.
+fn connect(port: u16) -> (Connection, services::Peer) {
     let mut link =
         Connection::open(&format!("udpout://127.0.0.1:{port}"), services::TABLE).unwrap();
     let peer = services::wait_for_vehicle(&mut link, Duration::from_secs(10))
         .unwrap()
         .expect("the vehicle");
+    (link, peer)
+}
+
+#[test]
+fn a_cached_parameter_list_is_kept_while_the_hash_check_is_unchanged() {
+    let root = tempfile::tempdir().unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let (port, thread) = vehicle(root.path(), &stop);
+    let (mut link, peer) = connect(port);
     let mut remote = Remote::new(&mut link, peer);
     let mut cache = remote
         .fetch_params(Duration::from_secs(10), |_| {})
@@ -94,11 +100,7 @@ fn files_go_both_ways_and_stay_inside_the_root() {
     std::fs::write(root.path().join("logs/a.bin"), &data).unwrap();
     let stop = Arc::new(AtomicBool::new(false));
     let (port, thread) = vehicle(root.path(), &stop);
-    let mut link =
-        Connection::open(&format!("udpout://127.0.0.1:{port}"), services::TABLE).unwrap();
-    let peer = services::wait_for_vehicle(&mut link, Duration::from_secs(10))
-        .unwrap()
-        .expect("the vehicle");
+    let (mut link, peer) = connect(port);
     let mut remote = Remote::new(&mut link, peer);
     let names: Vec<String> = remote
         .ftp_list("/")
@@ -138,11 +140,7 @@ fn the_async_client_does_what_the_blocking_one_does() {
     std::fs::write(root.path().join("f.txt"), b"hello").unwrap();
     let stop = Arc::new(AtomicBool::new(false));
     let (port, thread) = vehicle(root.path(), &stop);
-    let mut link =
-        Connection::open(&format!("udpout://127.0.0.1:{port}"), services::TABLE).unwrap();
-    let peer = services::wait_for_vehicle(&mut link, Duration::from_secs(10))
-        .unwrap()
-        .expect("the vehicle");
+    let (link, peer) = connect(port);
     let remote = AsyncRemote::new(link, peer);
     let runtime = tokio::runtime::Builder::new_current_thread()
         .build()

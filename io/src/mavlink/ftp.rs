@@ -238,13 +238,17 @@ impl Remote<'_> {
         ftp::Client::new(self.ftp_config, self.target().address).with_seq(self.ftp_seq)
     }
 
-    /// Runs an FTP operation to its end; `on` sees each event before it.
+    /// Runs an FTP operation to its end; `on` sees each event, `progress` each change of
+    /// (bytes transferred, size) while reading or writing. Uploads take their bytes from
+    /// `source`.
     fn run_ftp(
         &mut self,
         client: &mut ftp::Client,
         source: &mut [u8],
         mut on: impl FnMut(&ftp::Event),
+        mut progress: impl FnMut(u32, u32),
     ) -> io::Result<Option<u32>> {
+        let mut shown = (0, 0);
         loop {
             let now = self.now_us();
             while let Some(m) = client.poll_transmit(now, source) {
@@ -258,8 +262,17 @@ impl Remote<'_> {
                         self.send(&m)?;
                     }
                     self.ftp_seq = client.seq();
-                    return result.map_err(io_error);
+                    let value = result.map_err(io_error)?;
+                    if shown.1 > 0 {
+                        progress(shown.1, shown.1);
+                    }
+                    return Ok(value);
                 }
+            }
+            let now_progress = client.progress();
+            if now_progress != shown && now_progress.1 > 0 {
+                shown = now_progress;
+                progress(shown.0, shown.1);
             }
             let until = client
                 .poll_timeout()
@@ -276,7 +289,7 @@ impl Remote<'_> {
         let mut client = self.ftp_client();
         let _ = client.list(self.now_us(), path);
         let mut out = Vec::new();
-        self.run_ftp(&mut client, &mut [], |e| {
+        let on = |e: &ftp::Event| {
             if let ftp::Event::Listing(chunk) = e {
                 out.extend(
                     entries(chunk.as_slice())
@@ -288,36 +301,28 @@ impl Remote<'_> {
                         }),
                 );
             }
-        })?;
+        };
+        self.run_ftp(&mut client, &mut [], on, |_, _| {})?;
         Ok(out)
     }
 
     /// Reads file `path` from the target; `progress` sees (bytes received, size).
-    pub fn ftp_get(
-        &mut self,
-        path: &str,
-        mut progress: impl FnMut(u32, u32),
-    ) -> io::Result<Vec<u8>> {
+    pub fn ftp_get(&mut self, path: &str, progress: impl FnMut(u32, u32)) -> io::Result<Vec<u8>> {
         let mut client = self.ftp_client();
         let _ = client.read(self.now_us(), path);
         let mut data = Vec::new();
-        let mut done = 0u32;
-        self.run_ftp(&mut client, &mut [], |e| match e {
-            ftp::Event::Size(size) => {
-                data = vec![0; *size as usize];
-                progress(0, *size);
-            }
+        let on = |e: &ftp::Event| match e {
+            ftp::Event::Size(size) => data = vec![0; *size as usize],
             ftp::Event::Data { offset, bytes } => {
                 let b = bytes.as_slice();
                 let at = *offset as usize;
                 if let Some(dst) = data.get_mut(at..at + b.len()) {
                     dst.copy_from_slice(b);
-                    done = done.saturating_add(b.len() as u32);
-                    progress(done.min(data.len() as u32), data.len() as u32);
                 }
             }
             _ => {}
-        })?;
+        };
+        self.run_ftp(&mut client, &mut [], on, progress)?;
         Ok(data)
     }
 
@@ -327,52 +332,22 @@ impl Remote<'_> {
         &mut self,
         path: &str,
         data: &[u8],
-        mut progress: impl FnMut(u32, u32),
+        progress: impl FnMut(u32, u32),
     ) -> io::Result<()> {
         let size = u32::try_from(data.len())
             .map_err(|_| io::Error::other("a file over 4 GiB cannot go over MAVLink FTP"))?;
         let mut client = self.ftp_client();
         let _ = client.write(self.now_us(), path, size);
         let mut source = data.to_vec();
-        let mut last = 0;
-        loop {
-            // Progress between events: the client counts acknowledged bytes.
-            let now = self.now_us();
-            while let Some(m) = client.poll_transmit(now, &mut source[..]) {
-                self.send(&m)?;
-            }
-            let (acked, _) = client.progress();
-            if acked != last {
-                last = acked;
-                progress(acked, size);
-            }
-            if let Some(e) = client.poll_event() {
-                if let ftp::Event::Done(result) = e {
-                    while let Some(m) = client.poll_transmit(now, &mut source[..]) {
-                        self.send(&m)?;
-                    }
-                    self.ftp_seq = client.seq();
-                    result.map_err(io_error)?;
-                    progress(size, size);
-                    return Ok(());
-                }
-                continue;
-            }
-            let until = client
-                .poll_timeout()
-                .unwrap_or(now + 1_000_000)
-                .max(now + 1);
-            if let Some((from, msg)) = self.next(until)? {
-                client.handle(self.now_us(), from, &msg);
-            }
-        }
+        self.run_ftp(&mut client, &mut source, |_| {}, progress)
+            .map(drop)
     }
 
     /// The CRC-32 of file `path` on the target, as the target computes it.
     pub fn ftp_crc32(&mut self, path: &str) -> io::Result<u32> {
         let mut client = self.ftp_client();
         let _ = client.crc32(self.now_us(), path);
-        let crc = self.run_ftp(&mut client, &mut [], |_| {})?;
+        let crc = self.run_ftp(&mut client, &mut [], |_| {}, |_, _| {})?;
         crc.ok_or_else(|| io::Error::other("the CRC-32 reply held no value"))
     }
 
@@ -380,6 +355,7 @@ impl Remote<'_> {
     pub fn ftp_remove(&mut self, path: &str) -> io::Result<()> {
         let mut client = self.ftp_client();
         let _ = client.remove(self.now_us(), path);
-        self.run_ftp(&mut client, &mut [], |_| {}).map(drop)
+        self.run_ftp(&mut client, &mut [], |_| {}, |_, _| {})
+            .map(drop)
     }
 }

@@ -104,7 +104,7 @@ fn send_heartbeat(link: &mut Connection) {
 }
 
 /// The parameters a fetch got.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct ParamList {
     /// The target's count.
     pub count: u16,
@@ -116,6 +116,20 @@ pub struct ParamList {
 }
 
 impl ParamList {
+    /// Takes a value of a list into its place; `false` for one outside the count (PX4's
+    /// `_HASH_CHECK`). A new count starts the table again.
+    fn take(&mut self, r: &Received) -> bool {
+        if r.index >= r.count {
+            return false;
+        }
+        if r.count != self.count || self.values.is_empty() {
+            self.count = r.count;
+            self.values = vec![None; usize::from(r.count)];
+        }
+        self.values[usize::from(r.index)] = Some(*r);
+        true
+    }
+
     /// How many values never came.
     pub fn missing(&self) -> usize {
         self.values.iter().filter(|v| v.is_none()).count()
@@ -281,21 +295,11 @@ impl<'c> Remote<'c> {
     ) -> io::Result<ParamList> {
         let mut client = self.param_client();
         let _ = client.list();
-        let mut list = ParamList {
-            count: 0,
-            values: Vec::new(),
-            hash: None,
-        };
+        let mut list = ParamList::default();
         self.run_param(&mut client, Some(timeout), |r| {
-            if r.index >= r.count {
-                return;
+            if list.take(r) {
+                on_value(r);
             }
-            if r.count != list.count {
-                list.count = r.count;
-                list.values = vec![None; usize::from(r.count)];
-            }
-            list.values[usize::from(r.index)] = Some(*r);
-            on_value(r);
         })?;
         list.hash = client.announced_hash();
         Ok(list)
@@ -312,20 +316,9 @@ impl<'c> Remote<'c> {
         };
         let mut client = self.param_client();
         let _ = client.list_unless(hash);
-        let mut list = ParamList {
-            count: 0,
-            values: Vec::new(),
-            hash: None,
-        };
+        let mut list = ParamList::default();
         let event = self.run_param(&mut client, Some(timeout), |r| {
-            if r.index >= r.count {
-                return;
-            }
-            if r.count != list.count {
-                list.count = r.count;
-                list.values = vec![None; usize::from(r.count)];
-            }
-            list.values[usize::from(r.index)] = Some(*r);
+            list.take(r);
         })?;
         // The stop goes out before this returns.
         while let Some(m) = client.poll_transmit(self.now_us()) {

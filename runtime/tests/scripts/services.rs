@@ -14,7 +14,8 @@
 //!
 //! - nothing panics, and no state machine sends without end at one instant;
 //! - every PARAM_VALUE the server sends is one of its parameters, at its index, with the value
-//!   it holds, and the count it has;
+//!   it holds, and the count it has, or (when it offers it) `_HASH_CHECK` with the hash of what
+//!   it holds;
 //! - a set never changes a parameter's type;
 //! - every COMMAND_ACK goes to the sender of a command, for that command's id;
 //! - a client's list ends with no more missing values than the count;
@@ -266,11 +267,12 @@ pub fn check_servers(data: &[u8]) {
     } else {
         Encoding::Bytewise
     };
+    let hash_check = data.first().is_some_and(|b| b & 2 == 2);
     let mut param_server: param::Server<4> = param::Server::new(param::ServerConfig {
         own: OWN,
         encoding,
         list_interval_us: 0,
-        hash_check: data.first().is_some_and(|b| b & 2 == 2),
+        hash_check,
     });
     let mut command_server: command::Server<3> =
         command::Server::new(command::ServerConfig::new(OWN));
@@ -383,6 +385,12 @@ pub fn check_servers(data: &[u8]) {
                 panic!("the parameter server sent {m:?}")
             };
             assert_eq!(v.param_count, params.count());
+            if param::hash::is_hash_check(&v.param_id) {
+                assert!(hash_check, "a _HASH_CHECK from a server without it");
+                assert_eq!(v.param_index, u16::MAX);
+                assert_eq!(v.param_value.to_bits(), param::hash::hash(&params[..]));
+                continue;
+            }
             let p = params[usize::from(v.param_index)];
             assert_eq!(v.param_id, p.name);
             let value =

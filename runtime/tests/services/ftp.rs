@@ -429,10 +429,16 @@ fn a_repeated_request_is_answered_alike_and_not_run_twice() {
     vehicle.handle(2, GCS, &request(11, 7, 0, 0, b"abc"));
     assert_eq!(replies(&mut vehicle, 2), write);
     assert_eq!(vehicle.fs.writes, 1);
-    // The create, asked again after another request, runs again: the file is emptied.
     assert_eq!(first[0].seq, 11);
     assert_eq!(write[0].seq, 12);
+    // A late copy of the create, after another request, is dropped: the file keeps its bytes.
+    vehicle.handle(3, GCS, &request(10, 6, 0, 0, b"/new.bin\0"));
+    assert_eq!(replies(&mut vehicle, 3), []);
     assert_eq!(vehicle.fs.files["new.bin"], b"abc");
+    // After the window, the same bytes are a new request.
+    vehicle.handle(4_000_000, GCS, &request(10, 6, 0, 0, b"/new.bin\0"));
+    assert_eq!(replies(&mut vehicle, 4_000_000)[0].opcode, 128);
+    assert_eq!(vehicle.fs.files["new.bin"], b"");
 }
 
 #[test]

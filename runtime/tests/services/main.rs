@@ -29,6 +29,13 @@ fn a_crc_of_a_missing_file_closes_nothing() {
     scripts::check_servers(&script);
 }
 
+/// Found by the `mavlink_services` fuzz target: the script took the server's `_HASH_CHECK`
+/// (index -1) for a parameter.
+#[test]
+fn a_hash_check_is_not_a_parameter() {
+    scripts::check_servers(&hex("ff51ff51ff51ff511b50"));
+}
+
 fn hex(s: &str) -> Vec<u8> {
     (0..s.len())
         .step_by(2)

@@ -773,8 +773,7 @@ impl Client {
             return None;
         }
         match self.op {
-            Op::Read(Phase::Fill) => self.fill_slots(now_us),
-            Op::Write(Phase::Data) => self.write_slots(now_us, source),
+            Op::Read(Phase::Fill) | Op::Write(Phase::Data) => self.window_transmit(now_us, source),
             _ => None,
         }
     }
@@ -845,24 +844,16 @@ impl Client {
         self.slots[..window].iter().any(Option::is_none) && self.next_piece().is_some()
     }
 
-    fn fill_slots(&mut self, now_us: u64) -> Option<Message> {
+    /// The next read (filling gaps) or write of the window: a new one when there is room,
+    /// else one whose wait ran out.
+    fn window_transmit<S: Source + ?Sized>(
+        &mut self,
+        now_us: u64,
+        source: &mut S,
+    ) -> Option<Message> {
+        let writing = self.op == Op::Write(Phase::Data);
         let next = self.next_piece();
-        let i = match self.due_slot(now_us, next)? {
-            Ok(i) => i,
-            Err(()) => {
-                self.finish(Err(Error::Timeout));
-                return None;
-            }
-        };
-        let s = self.slots[i]?;
-        let mut p = Payload::request(s.seq, self.session, Opcode::ReadFile, s.offset);
-        p.size = s.len;
-        Some(p.to_message(self.target))
-    }
-
-    fn write_slots<S: Source + ?Sized>(&mut self, now_us: u64, source: &mut S) -> Option<Message> {
-        let next = self.next_piece();
-        if self.has_room() {
+        if writing && self.has_room() {
             // `due_slot` takes the piece into the window.
             if let Some((offset, len)) = next {
                 self.mark = offset + u32::from(len);
@@ -876,12 +867,18 @@ impl Client {
             }
         };
         let s = self.slots[i]?;
-        let mut p = Payload::request(s.seq, self.session, Opcode::WriteFile, s.offset);
-        let want = usize::from(s.len);
-        let n = source.read(s.offset, &mut p.data[..want]);
-        if n < want {
-            self.finish(Err(Error::Nak(Nak::Fail)));
-            return None;
+        let opcode = if writing {
+            Opcode::WriteFile
+        } else {
+            Opcode::ReadFile
+        };
+        let mut p = Payload::request(s.seq, self.session, opcode, s.offset);
+        if writing {
+            let want = usize::from(s.len);
+            if source.read(s.offset, &mut p.data[..want]) < want {
+                self.finish(Err(Error::Nak(Nak::Fail)));
+                return None;
+            }
         }
         p.size = s.len;
         Some(p.to_message(self.target))
