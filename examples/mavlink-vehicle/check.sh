@@ -5,11 +5,13 @@
 #
 # Usage: bash examples/mavlink-vehicle/check.sh [firmware_qemu.py options, e.g. --only stack]
 #
-# Exits with firmware_qemu.py's status: 0 when every check passed.
+# Exits with firmware_qemu.py's status: 0 when every check passed. The firmware's Rust target
+# (thumbv7em-none-eabihf) is added with rustup when it is not installed.
 #
 # Environment:
 #   FERROLINK            the ferrolink binary (default: target/debug/ferrolink of the main
-#                        workspace, built with `cargo build -p ferrolink-cli` when missing)
+#                        workspace, built with `cargo build -p ferrolink-cli` when missing;
+#                        `cargo test -p ferrolink-cli --test firmware_qemu` passes its own)
 #   PYTHON               a Python with mavsdk and pymavlink (default: the main workspace's
 #                        .venv/bin/python, else python3)
 #   FERROLINK_CARGO_LOCK lock file serialising cargo runs (default: /tmp/ferrolink-cargo.lock);
@@ -23,12 +25,26 @@ locked() {
     if command -v flock >/dev/null; then flock "$lock" "$@"; else "$@"; fi
 }
 
+die() {
+    echo "check.sh: $*" >&2
+    exit 1
+}
+
+# The firmware's target, for the toolchain that builds it (the one of its directory).
+target=thumbv7em-none-eabihf
+libdir=$(cd "$here" && rustc --print target-libdir --target "$target" 2>/dev/null) || libdir=
+if [[ -z $libdir || ! -d $libdir ]]; then
+    command -v rustup >/dev/null || die "the $target target is not installed, and there is no rustup to add it"
+    (cd "$here" && rustup target add "$target") >&2 || die "rustup could not add the $target target"
+fi
+
 python=${PYTHON:-$root/.venv/bin/python}
 [[ -x $python ]] || python=python3
 ferrolink=${FERROLINK:-$root/target/debug/ferrolink}
-if [[ ! -x $ferrolink ]]; then
+if [[ -z ${FERROLINK:-} && ! -x $ferrolink ]]; then
     (cd "$root" && locked cargo build --quiet -p ferrolink-cli)
 fi
+[[ -x $ferrolink ]] || die "$ferrolink is not an executable"
 
 (cd "$here" && locked cargo build --quiet --release)
 

@@ -14,8 +14,8 @@
 #
 # Code by service: every symbol of .vector_table, .text and .rodata (binutils nm, demangled
 # with c++filt), grouped by its path: the runtime's service module and this firmware's code
-# for it (`vehicle::Vehicle::command_*`, `params::`, ...). Code the optimiser inlined goes with
-# the function it was inlined into.
+# for it (`vehicle::Vehicle::command_*`, `params::`, `files::`, ...). Code the optimiser inlined
+# goes with the function it was inlined into.
 #
 # Environment:
 #   FERROLINK_CARGO_LOCK lock file serialising cargo runs (default: /tmp/ferrolink-cargo.lock);
@@ -126,11 +126,15 @@ group() {
     *service::param::* | *Vehicle::param_* | *mavlink_vehicle::params::*) echo param ;;
     *service::mission::* | *Vehicle::mission_* | *mavlink_vehicle::missions::*) echo mission ;;
     *service::peers::* | *Vehicle::peers_*) echo peers ;;
+    *service::ftp::* | *Vehicle::ftp_* | *mavlink_vehicle::files::* | *FileSystem*) echo ftp ;;
     *mavlink::parser::* | *mavlink::v2::* | *ferrolink_runtime::crc::* | *ferrolink_runtime::framing::* | \
         *ferrolink_runtime::wire::* | *mavlink::decode_variant* | *microservices::* | *mavlink_vehicle::link::*)
         echo framing ;;
-    compiler_builtins::mem::* | __aeabi_mem* | memcpy | memmove | memset | memcmp) echo mem ;;
-    compiler_builtins::float::* | __aeabi_[dfilu]*2[dfilu]* | __aeabi_d*) echo float ;;
+    compiler_builtins::mem::* | __aeabi_mem* | memcpy | memmove | memset | memcmp | bcmp | \
+        *mavlink_vehicle::mem::*) echo mem ;;
+    compiler_builtins::float::* | __aeabi_[dfilu]*2[dfilu]* | __aeabi_d* | \
+        ferrolink_runtime::mavlink::service::mul_round | ferrolink_runtime::mavlink::service::div_f* | \
+        ferrolink_runtime::mavlink::service::widen) echo float ;;
     *) echo rest ;;
     esac
 }
@@ -152,9 +156,10 @@ echo "| command (server, ARM/DISARM and calibration) | ${bytes[command]:-0} |"
 echo "| param (server, store, the 64-entry table) | ${bytes[param]:-0} |"
 echo "| mission (server, store) | ${bytes[mission]:-0} |"
 echo "| peers (HEARTBEAT table, data link loss) | ${bytes[peers]:-0} |"
+echo "| ftp (server, the file table, param.pck) | ${bytes[ftp]:-0} |"
 echo "| MAVLink framing, CRC, message encode/decode | ${bytes[framing]:-0} |"
-echo "| compiler_builtins: memcpy, memmove, memset, memcmp | ${bytes[mem]:-0} |"
-echo "| compiler_builtins: f64 in software (the services' conversions) | ${bytes[float]:-0} |"
+echo "| memcpy, memmove, memset, memcmp (src/mem.rs, a byte at a time) | ${bytes[mem]:-0} |"
+echo "| the services' f64 conversions, in integers (no f64 in software) | ${bytes[float]:-0} |"
 echo "| the rest (main loop, HEARTBEAT, hw, vectors, constants) | ${bytes[rest]:-0} |"
 echo "| not in a symbol (alignment) | $((flash - total)) |"
 echo

@@ -30,6 +30,18 @@ exit status is 1 on any failure; a router that does not connect fails the run at
   our_command     ``ferrolink mavlink command``: COMPONENT_ARM_DISARM (the HEARTBEAT shows
                   it), PREFLIGHT_CALIBRATION with its progress (0, 25, 50, 75 %) in about 2 s,
                   an unsupported command, disarm as COMMAND_INT.
+  our_ftp         ``ferrolink mavlink ftp ls`` of ``/`` and ``/@PARAM``, ``ftp get`` of
+                  ``@PARAM/param.pck``: ArduPilot's packed parameter format, checked byte by
+                  byte (header, records, names shared with the previous one, zero padding, no
+                  value across a 239-byte block) and holding the 64 values ``param list``
+                  gives; ``?withdefaults=1`` with a parameter set away from its default; a
+                  ``put`` refused (file protected).
+  mavftp_params   pymavlink's ``mavftp`` lists ``/@PARAM`` and its ``getparams`` decodes the
+                  64 parameters (values and defaults) with the values ``param list`` gives;
+                  MAVProxy's decoder (its parameter module's) reads param.pck the same.
+  mavsdk_ftp      MAVSDK's Ftp plugin lists ``/`` and ``/@PARAM`` and downloads param.pck with
+                  and without bursts: the bytes our CLI gets (SYS_STACK_USED may differ:
+                  it is live); its CRC-32 check agrees with the firmware's.
   stack           SYS_STACK_USED after all of that, within memory.x's stack reserve.
 
 Every check leaves the parameters as it found them.
@@ -41,6 +53,7 @@ import os
 import re
 import shutil
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -127,8 +140,8 @@ class Context:
             except subprocess.TimeoutExpired:
                 self.router.kill()
 
-    def heartbeats(self, seconds):
-        """The firmware's HEARTBEATs over `seconds`, through a pymavlink peer of the router."""
+    def peer(self):
+        """A pymavlink peer of the router (system 250), made known to it by a HEARTBEAT."""
         from pymavlink import mavutil
         if self.mav is None:
             self.mav = mavutil.mavlink_connection("udpout:%s:%d" % (HOST, self.udp),
@@ -136,6 +149,11 @@ class Context:
         # The router learns a UDP peer from what it sends.
         self.mav.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS,
                                     mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        return self.mav
+
+    def heartbeats(self, seconds):
+        """The firmware's HEARTBEATs over `seconds`, through a pymavlink peer of the router."""
+        self.peer()
         seen = []
         end = time.monotonic() + seconds
         while time.monotonic() < end:
@@ -426,6 +444,263 @@ def check_our_command(ctx):
             "ACCEPTED in %.2f s; NAV_TAKEOFF UNSUPPORTED; disarm (COMMAND_INT) ACCEPTED" % took)
 
 
+# param.pck (src/files.rs): ArduPilot's packed parameters. Its four types, and the one each
+# MAV_PARAM_TYPE goes to: (code, struct format); the unsigned types widened, UINT32 as its bits.
+PCK_TYPES = {1: "<b", 2: "<h", 3: "<i", 4: "<f"}
+PCK_TYPE_OF = {"UINT8": 2, "INT8": 1, "UINT16": 3, "INT16": 2, "UINT32": 3, "INT32": 3,
+               "REAL32": 4}
+PCK_MAGIC, PCK_MAGIC_DEFAULTS = 0x671B, 0x671C
+FTP_BLOCK = 239
+PCK_PATH = "/@PARAM/param.pck"
+
+
+def decode_pck(data, with_defaults):
+    """param.pck, checked strictly: [(name, type code, value, default, value offset)]."""
+    if len(data) < 6:
+        raise CheckFailed("param.pck is %d bytes" % len(data))
+    magic, count, total = struct.unpack("<HHH", data[:6])
+    want = PCK_MAGIC_DEFAULTS if with_defaults else PCK_MAGIC
+    if (magic, count, total) != (want, PARAM_COUNT, PARAM_COUNT):
+        raise CheckFailed("param.pck header (magic, count, total) is (%#x, %d, %d)"
+                          % (magic, count, total))
+    out, at, last = [], 6, b""
+    while at < len(data):
+        if data[at] == 0:  # padding
+            at += 1
+            continue
+        ty, flags, common, rest = data[at] & 15, data[at] >> 4, data[at + 1] & 15, \
+            (data[at + 1] >> 4) + 1
+        if ty not in PCK_TYPES or flags != (1 if with_defaults else 0) or common > len(last):
+            raise CheckFailed("param.pck record at %d: type %d, flags %d, %d name bytes shared"
+                              % (at, ty, flags, common))
+        name = last[:common] + data[at + 2:at + 2 + rest]
+        shared = 0
+        while shared < min(len(name) - 1, len(last), 15) and name[shared] == last[shared]:
+            shared += 1
+        if common != shared:
+            raise CheckFailed("param.pck shares %d bytes of %s with %s, not %d"
+                              % (common, name, last, shared))
+        fmt = PCK_TYPES[ty]
+        size = struct.calcsize(fmt)
+        start = at + 2 + rest
+        end = start + size * (2 if with_defaults else 1)
+        if end > len(data):
+            raise CheckFailed("param.pck ends inside %s" % name)
+        if start // FTP_BLOCK != (end - 1) // FTP_BLOCK:
+            raise CheckFailed("%s's value (%d..%d) crosses a %d-byte block"
+                              % (name, start, end, FTP_BLOCK))
+        value = struct.unpack(fmt, data[start:start + size])[0]
+        default = struct.unpack(fmt, data[start + size:end])[0] if with_defaults else None
+        out.append((name.decode(), ty, value, default, start))
+        last, at = name, end
+    if len(out) != PARAM_COUNT:
+        raise CheckFailed("param.pck holds %d parameters" % len(out))
+    return out
+
+
+def same_value(listed, ty, value):
+    """Whether `value` of packed type `ty` is the value `param list` gave."""
+    if PCK_TYPE_OF[listed["type"]] != ty:
+        return False
+    if listed["type"] == "REAL32":
+        return f32(listed["value"]) == value
+    return listed["value"] & 0xFFFFFFFF == value & 0xFFFFFFFF
+
+
+def compare_pck(ctx, records):
+    """Fails unless `records` hold what ``param list`` gives, in its order (SYS_STACK_USED
+    only within the stack: it is live)."""
+    listed = ctx.param_list()
+    if [r[0] for r in records] != [p["name"] for p in listed]:
+        raise CheckFailed("param.pck's names %s, param list's %s"
+                          % ([r[0] for r in records], [p["name"] for p in listed]))
+    for (name, ty, value, _, _), p in zip(records, listed):
+        if name == "SYS_STACK_USED":
+            if not (ty == 3 and 0 < value <= 16384):
+                raise CheckFailed("param.pck's SYS_STACK_USED is %d (type %d)" % (value, ty))
+        elif not same_value(p, ty, value):
+            raise CheckFailed("param.pck has %s = %r (type %d), param list %r (%s)"
+                              % (name, value, ty, p["value"], p["type"]))
+    return listed
+
+
+def ftp_ls(ctx, path):
+    rc, out, err = ctx.cli("ftp", "ls", "URI", path)
+    if rc != 0:
+        raise CheckFailed("ftp ls %s exited %d: %s" % (path, rc, err.strip()))
+    return [json.loads(line) for line in out.splitlines() if line.strip()]
+
+
+def ftp_get(ctx, path):
+    local = os.path.join(ctx.workdir, "got.pck")
+    rc, _, err = ctx.cli("ftp", "get", "URI", path, local)
+    if rc != 0:
+        raise CheckFailed("ftp get %s exited %d: %s" % (path, rc, err.strip()))
+    with open(local, "rb") as f:
+        return f.read()
+
+
+def check_our_ftp(ctx):
+    root = ftp_ls(ctx, "/")
+    if root != [{"name": "@PARAM", "kind": "dir", "size": 0}]:
+        raise CheckFailed("ftp ls / printed %s" % root)
+    listing = ftp_ls(ctx, "/@PARAM")
+    if len(listing) != 1 or listing[0]["name"] != "param.pck" or listing[0]["kind"] != "file":
+        raise CheckFailed("ftp ls /@PARAM printed %s" % listing)
+    data = ftp_get(ctx, PCK_PATH)
+    if len(data) != listing[0]["size"]:
+        raise CheckFailed("param.pck is %d bytes, listed as %d" % (len(data), listing[0]["size"]))
+    compare_pck(ctx, decode_pck(data, False))
+
+    # A parameter away from its default, in the file with the defaults.
+    name, new = "MC_PITCH_P", 6.75
+    old = ctx.param_get(name)
+    rc, got, err = ctx.param_set(name, new)
+    if rc != 0 or got != new:
+        raise CheckFailed("param set %s %s: exit %d, %s (%s)" % (name, new, rc, got, err))
+    try:
+        with_defaults = ftp_get(ctx, PCK_PATH + "?withdefaults=1")
+    finally:
+        ctx.param_set(name, old)
+    # Every other parameter is at its default (the checks put them back), but SYS_STACK_USED
+    # (0 by default).
+    for n, _, v, d, _ in decode_pck(with_defaults, True):
+        want = {name: (f32(new), f32(old)), "SYS_STACK_USED": (v, 0)}.get(n, (d, d))
+        if (v, d) != want:
+            raise CheckFailed("with defaults, %s is %r (default %r), not %r (default %r)"
+                              % (n, v, d, *want))
+
+    up = os.path.join(ctx.workdir, "up.pck")
+    with open(up, "wb") as f:
+        f.write(data)
+    rc, _, err = ctx.cli("ftp", "put", "URI", up, PCK_PATH)
+    if rc == 0 or "file protected" not in err:
+        raise CheckFailed("ftp put %s: exit %d, %s" % (PCK_PATH, rc, err.strip()))
+    return ("ls / and /@PARAM; param.pck %d B, the 64 values of param list; with defaults "
+            "%d B, %s %g (default %g); put refused (file protected)"
+            % (len(data), len(with_defaults), name, new, old))
+
+
+def read_parm(path):
+    """A parameter file as pymavlink's getparams writes it (Mission Planner's NAME,VALUE)."""
+    out = {}
+    with open(path) as f:
+        for line in f:
+            if line.strip():
+                name, value = line.strip().split(",")
+                out[name] = value
+    return out
+
+
+def parm_text(value):
+    """A value as getparams writes it."""
+    return format(value, ".6f").rstrip("0").rstrip(".")
+
+
+def check_mavftp_params(ctx):
+    from pymavlink import mavftp
+    ftp = mavftp.MAVFTP(ctx.peer(), SYSID, COMPID)
+    ret = ftp.cmd_list(["/@PARAM"])
+    listing = [(e.name, e.is_dir) for e in ret.directory_listing if e.name not in (".", "..")]
+    if ret.error_code != mavftp.FtpError.Success or listing != [("param.pck", False)]:
+        raise CheckFailed("mavftp listed %s (%s)" % (listing, ret.error_code))
+    values = os.path.join(ctx.workdir, "values.parm")
+    defaults = os.path.join(ctx.workdir, "defaults.parm")
+    t0 = time.monotonic()
+    ftp.cmd_getparams([values, defaults])
+    ret = ftp.process_ftp_reply("OpenFileRO", timeout=30)
+    took = time.monotonic() - t0
+    if ret.error_code != mavftp.FtpError.Success or ftp.callback_failure is not None:
+        raise CheckFailed("getparams: %s %s" % (ret.error_code, ftp.callback_failure))
+    got, got_defaults = read_parm(values), read_parm(defaults)
+    listed = ctx.param_list()
+    want = {p["name"]: parm_text(f32(p["value"]) if p["type"] == "REAL32" else p["value"])
+            for p in listed}
+    if len(got) != PARAM_COUNT or set(got) != set(want):
+        raise CheckFailed("getparams wrote %d parameters: %s" % (len(got), sorted(got)))
+    for n, v in want.items():
+        if n != "SYS_STACK_USED" and got[n] != v:
+            raise CheckFailed("getparams has %s = %s, param list %s" % (n, got[n], v))
+        # Every parameter is at its default (the checks restore them), but SYS_STACK_USED.
+        d = "0" if n == "SYS_STACK_USED" else v
+        if got_defaults.get(n) != d:
+            raise CheckFailed("getparams has %s's default %s, not %s"
+                              % (n, got_defaults.get(n), d))
+    note = "64 values and defaults as param list gives them, in %.2f s (80-byte bursts)" % took
+    # MAVProxy's parameter module has a decoder of its own (it fetches param.pck with defaults).
+    try:
+        from MAVProxy.modules.lib import param_ftp
+    except ImportError:
+        return note + "; MAVProxy not installed"
+    pdata = param_ftp.ftp_param_decode(ftp_get(ctx, PCK_PATH + "?withdefaults=1"))
+    if pdata is None or pdata.defaults is None:
+        raise CheckFailed("MAVProxy's decoder did not decode param.pck?withdefaults=1")
+    for (n, v, _), (dn, d, _) in zip(pdata.params, pdata.defaults):
+        n, dn = n.decode(), dn.decode()
+        ok = n == dn and n in want and (
+            n == "SYS_STACK_USED" or parm_text(v) == want[n] == parm_text(d))
+        if not ok:
+            raise CheckFailed("MAVProxy decoded %s = %r (default %s %r), param list %s"
+                              % (n, v, dn, d, want.get(n)))
+    if len(pdata.params) != PARAM_COUNT:
+        raise CheckFailed("MAVProxy decoded %d parameters" % len(pdata.params))
+    return note + "; MAVProxy's decoder agrees"
+
+
+async def mavsdk_download(ftp, local_dir, burst):
+    async for _result, _progress in ftp.download(PCK_PATH, local_dir, burst):
+        pass
+    with open(os.path.join(local_dir, "param.pck"), "rb") as f:
+        return f.read()
+
+
+def same_but_stack(a, b):
+    """Whether two param.pck downloads are the same bytes but for SYS_STACK_USED's value."""
+    if len(a) != len(b):
+        return False
+    at = {r[0]: r[4] for r in decode_pck(a, False)}["SYS_STACK_USED"]
+    return a[:at] == b[:at] and a[at + 4:] == b[at + 4:]
+
+
+@mavsdk_check
+async def check_mavsdk_ftp(ctx):
+    from mavsdk.asyncio.plugins.ftp import FtpAsync
+    ours = ftp_get(ctx, PCK_PATH)
+    mavsdk, system = await connect(ctx)
+    notes = []
+    try:
+        ftp = FtpAsync(system)
+        for path, want in (("/", [("@PARAM", 2, 0)]), ("/@PARAM", [("param.pck", 1, len(ours))])):
+            listing = await ftp.list_directory(path)
+            got = [(e.name, int(e.entry_type), e.size_bytes) for e in listing.entries]
+            if got != want:
+                raise CheckFailed("MAVSDK listed %s as %s, not %s" % (path, got, want))
+            # MAVSDK closes the listing's session after it returns: let the answer come
+            # before the next request (a late one draws a warning from MAVSDK).
+            await asyncio.sleep(0.2)
+        local = os.path.join(ctx.workdir, "mavsdk")
+        os.makedirs(local, exist_ok=True)
+        for burst in (False, True):
+            t0 = time.monotonic()
+            got = await mavsdk_download(ftp, local, burst)
+            if not same_but_stack(got, ours):
+                raise CheckFailed("MAVSDK's download (burst %s) differs from our CLI's: %d and "
+                                  "%d bytes" % (burst, len(got), len(ours)))
+            notes.append("%s %.2f s" % ("burst" if burst else "read", time.monotonic() - t0))
+        # SYS_STACK_USED is refreshed with each HEARTBEAT: once more if it changed between the
+        # download and the CRC.
+        for attempt in range(2):
+            if await ftp.are_files_identical(os.path.join(local, "param.pck"), PCK_PATH):
+                break
+            if attempt:
+                raise CheckFailed("MAVSDK's CRC-32 of param.pck is not the firmware's")
+            await mavsdk_download(ftp, local, True)
+    finally:
+        await mavsdk.__aexit__(None, None, None)
+    return ("listings; param.pck (%d B) read as our CLI reads it (%s); CRC-32 the same"
+            % (len(ours), ", ".join(notes)))
+
+
 def stack_reserve():
     with open(MEMORY_X) as f:
         m = re.search(r"_stack_reserve\s*=\s*(\d+)([KM]?)\s*;", f.read())
@@ -452,6 +727,9 @@ CHECKS = {
     "our_params": check_our_params,
     "our_mission": check_our_mission,
     "our_command": check_our_command,
+    "our_ftp": check_our_ftp,
+    "mavftp_params": check_mavftp_params,
+    "mavsdk_ftp": check_mavsdk_ftp,
     "stack": check_stack,
 }
 

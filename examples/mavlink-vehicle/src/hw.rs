@@ -1,5 +1,6 @@
 //! The board, by volatile register access: mps2-an386's UART0, the Cortex-M4's SysTick, sleep,
-//! and the stack's high-water mark. All the firmware's `unsafe` is in this module.
+//! and the stack's high-water mark. All the firmware's `unsafe` is in this module, but for
+//! `mem`'s `memcpy` and kin.
 //!
 //! - **UART0** is a CMSDK APB UART at `0x4000_4000` (Arm DDI0479C; QEMU's
 //!   `hw/char/cmsdk-apb-uart.c`): DATA `+0x0`, STATE `+0x4` (bit 0 TX buffer full, bit 1 RX

@@ -16,17 +16,19 @@
 
 use ferrolink_runtime::framing::Feed;
 use ferrolink_runtime::mavlink::service::messages::{
-    CommandCancel, CommandInt, CommandLong, Heartbeat, Message, MissionClearAll, MissionCount,
-    MissionItem, MissionItemInt, MissionRequest, MissionRequestInt, MissionRequestList,
-    MissionSetCurrent, ParamRequestList, ParamRequestRead, ParamSet,
+    CommandCancel, CommandInt, CommandLong, FileTransferProtocol, Heartbeat, Message,
+    MissionClearAll, MissionCount, MissionItem, MissionItemInt, MissionRequest, MissionRequestInt,
+    MissionRequestList, MissionSetCurrent, ParamRequestList, ParamRequestRead, ParamSet,
 };
 use ferrolink_runtime::mavlink::service::Address;
-use ferrolink_runtime::mavlink::{v2, Dialect, Header, Message as _, MessageMeta, Parser};
+use ferrolink_runtime::mavlink::{
+    v2, Dialect, Header, Message as WireMessage, MessageMeta, Parser, PayloadBuf, MAX_PAYLOAD_LEN,
+};
 
 use crate::hw::Uart;
 
 /// The messages the services take, sorted by id: the parser drops every other.
-pub static RX_META: [MessageMeta; 15] = pick([
+pub static RX_META: [MessageMeta; 16] = pick([
     Heartbeat::ID,
     ParamRequestRead::ID,
     ParamRequestList::ID,
@@ -42,6 +44,7 @@ pub static RX_META: [MessageMeta; 15] = pick([
     CommandInt::ID,
     CommandLong::ID,
     CommandCancel::ID,
+    FileTransferProtocol::ID,
 ]);
 
 /// The entries of the services' message table for `ids` (each must be there), at compile time.
@@ -78,6 +81,7 @@ pub fn decode(id: u32, p: &[u8]) -> Option<Message> {
         CommandInt::ID => Message::CommandInt(CommandInt::decode(p)),
         CommandLong::ID => Message::CommandLong(CommandLong::decode(p)),
         CommandCancel::ID => Message::CommandCancel(CommandCancel::decode(p)),
+        FileTransferProtocol::ID => Message::FileTransferProtocol(FileTransferProtocol::decode(p)),
         _ => return None,
     })
 }
@@ -136,28 +140,37 @@ impl Link {
     }
 
     /// Sends `msg` as a MAVLink 2 frame. Only the messages the services answer with are
-    /// encoded (HEARTBEAT, PARAM_VALUE, COMMAND_ACK and the mission protocol's); any other is
-    /// dropped.
+    /// encoded (HEARTBEAT, PARAM_VALUE, COMMAND_ACK, the mission protocol's and
+    /// FILE_TRANSFER_PROTOCOL); any other is dropped. Each message's own encoder fills the
+    /// payload, and one framing serves them all.
     #[inline(never)]
     pub fn send(&mut self, msg: &Message) {
-        let header = Header::new(self.seq, self.own.system, self.own.component);
-        let mut frame = [0u8; v2::MAX_UNSIGNED_FRAME_LEN];
-        let out = &mut frame;
-        let encoded = match msg {
-            Message::Heartbeat(m) => v2::encode(header, m, out),
-            Message::ParamValue(m) => v2::encode(header, m, out),
-            Message::CommandAck(m) => v2::encode(header, m, out),
-            Message::MissionCount(m) => v2::encode(header, m, out),
-            Message::MissionItemInt(m) => v2::encode(header, m, out),
-            Message::MissionItem(m) => v2::encode(header, m, out),
-            Message::MissionRequestInt(m) => v2::encode(header, m, out),
-            Message::MissionAck(m) => v2::encode(header, m, out),
-            Message::MissionCurrent(m) => v2::encode(header, m, out),
+        let mut payload: PayloadBuf = [0; MAX_PAYLOAD_LEN];
+        let p = &mut payload;
+        let (id, crc_extra, len) = match msg {
+            Message::Heartbeat(m) => fill(m, p),
+            Message::ParamValue(m) => fill(m, p),
+            Message::CommandAck(m) => fill(m, p),
+            Message::MissionCount(m) => fill(m, p),
+            Message::MissionItemInt(m) => fill(m, p),
+            Message::MissionItem(m) => fill(m, p),
+            Message::MissionRequestInt(m) => fill(m, p),
+            Message::MissionAck(m) => fill(m, p),
+            Message::MissionCurrent(m) => fill(m, p),
+            Message::FileTransferProtocol(m) => fill(m, p),
             _ => return,
         };
-        if let Ok(len) = encoded {
-            self.uart.write(frame.get(..len).unwrap_or_default());
+        let header = Header::new(self.seq, self.own.system, self.own.component);
+        let mut frame = [0u8; v2::MAX_UNSIGNED_FRAME_LEN];
+        let payload = payload.get(..len).unwrap_or_default();
+        if let Ok(n) = v2::encode_raw(header, id, crc_extra, payload, &mut frame) {
+            self.uart.write(frame.get(..n).unwrap_or_default());
             self.seq = self.seq.wrapping_add(1);
         }
     }
+}
+
+/// `m`'s id, CRC_EXTRA and whole payload, written to `p`.
+fn fill<M: WireMessage>(m: &M, p: &mut PayloadBuf) -> (u32, u8, usize) {
+    (M::ID, M::CRC_EXTRA, m.encode(p))
 }

@@ -11,12 +11,16 @@
 //! | `MAV_CMD_PREFLIGHT_CALIBRATION` (241) | takes 2 s: IN_PROGRESS at 0, 25, 50 and 75 %, then ACCEPTED; COMMAND_CANCEL ends it with CANCELLED |
 //! | anything else | UNSUPPORTED |
 //!
+//! FTP: the read-only file table of [`crate::files`] (the parameters as `@PARAM/param.pck`),
+//! served by the runtime's FTP server; its replies go after every other service's.
+//!
 //! Data link loss: when the last ground station stays silent for 3 s (its HEARTBEATs, as the
 //! runtime's [`Peers`] keeps them) while the vehicle is armed and `NAV_DLL_ACT` is not 0, the
 //! vehicle disarms: it never leaves the ground, so PX4's actions (hold, return, land) all come
 //! to that. `NAV_DLL_ACT` is 0 by default, as in PX4.
 
 use ferrolink_runtime::mavlink::service::command::{self, Ack, Request};
+use ferrolink_runtime::mavlink::service::ftp;
 use ferrolink_runtime::mavlink::service::messages::{
     Heartbeat, MavAutopilot, MavCmd, MavModeFlag, MavResult, MavState, MavType, Message,
 };
@@ -24,6 +28,7 @@ use ferrolink_runtime::mavlink::service::param::{self, Encoding, Value};
 use ferrolink_runtime::mavlink::service::peers::{Event, Peers};
 use ferrolink_runtime::mavlink::service::{mission, Address};
 
+use crate::files::Files;
 use crate::hw;
 use crate::missions::Missions;
 use crate::params::{self, Params};
@@ -44,6 +49,17 @@ pub type ParamServer = param::Server<16>;
 pub type CommandServer = command::Server<4>;
 /// Components heard in HEARTBEATs.
 pub type GroundStations = Peers<4>;
+/// Files open at once over FTP (a ground station reading param.pck, and one more).
+pub type FtpServer = ftp::Server<2>;
+
+/// The FTP server's settings: the runtime's defaults. No `burst_gap_us`: a burst's replies go
+/// one per pass of the main loop, and `Link::send` waits for the UART at every byte, so the
+/// UART paces them whatever its rate; the HEARTBEAT and the other services' answers go before
+/// them, and the loop takes a received byte between two of them. (param.pck is some 1 kB: a
+/// burst of five replies.)
+pub fn ftp_config() -> ftp::ServerConfig {
+    ftp::ServerConfig::new(OWN)
+}
 
 /// The calibration under way: who asked, when it started, the progress reported.
 #[derive(Debug, Clone, Copy)]
@@ -53,8 +69,8 @@ struct Calibration {
     reported: u8,
 }
 
-/// The vehicle's state and its services. The stores are the caller's `static`s; the servers
-/// are small.
+/// The vehicle's state and its services. The stores and the FTP server (its replies are
+/// 1.6 kB) are the caller's `static`s; the other servers are small.
 #[derive(Debug)]
 pub struct Vehicle {
     params: ParamServer,
@@ -63,15 +79,23 @@ pub struct Vehicle {
     mission_store: &'static mut Missions,
     commands: CommandServer,
     peers: GroundStations,
+    ftp: &'static mut FtpServer,
+    /// The FTP sessions reading param.pck with its defaults, a bit each.
+    ftp_with_defaults: u8,
     armed: bool,
     calibration: Option<Calibration>,
     next_heartbeat_us: u64,
 }
 
 impl Vehicle {
-    /// A disarmed vehicle over these stores; its first HEARTBEAT goes at once. The servers use
-    /// bytewise parameters (a generic autopilot) and the runtime's defaults otherwise.
-    pub fn new(param_store: &'static mut Params, mission_store: &'static mut Missions) -> Self {
+    /// A disarmed vehicle over these stores, with `ftp` as its FTP server; its first
+    /// HEARTBEAT goes at once. The servers use bytewise parameters (a generic autopilot) and
+    /// the runtime's defaults otherwise.
+    pub fn new(
+        param_store: &'static mut Params,
+        mission_store: &'static mut Missions,
+        ftp: &'static mut FtpServer,
+    ) -> Self {
         Self {
             params: param::Server::new(param::ServerConfig {
                 own: OWN,
@@ -84,6 +108,8 @@ impl Vehicle {
             mission_store,
             commands: command::Server::new(command::ServerConfig::new(OWN)),
             peers: Peers::new(),
+            ftp,
+            ftp_with_defaults: 0,
             armed: false,
             calibration: None,
             next_heartbeat_us: 0,
@@ -91,11 +117,13 @@ impl Vehicle {
     }
 
     /// A message from `from`, for every service.
+    #[inline(never)]
     pub fn handle(&mut self, now_us: u64, from: Address, msg: &Message) {
         self.peers_handle(now_us, from, msg);
         self.param_handle(now_us, from, msg);
         self.mission_handle(now_us, from, msg);
         self.command_handle(now_us, from, msg);
+        self.ftp_handle(now_us, from, msg);
     }
 
     /// What time brings: the calibration's progress and end, lost ground stations.
@@ -104,8 +132,9 @@ impl Vehicle {
         self.peers_tick(now_us);
     }
 
-    /// The next message to send: the HEARTBEAT when due, then the command, parameter and
-    /// mission servers' answers, one per call.
+    /// The next message to send: the HEARTBEAT when due, then the command, parameter,
+    /// mission and FTP servers' answers, one per call.
+    #[inline(never)]
     pub fn poll_transmit(&mut self, now_us: u64) -> Option<Message> {
         if now_us >= self.next_heartbeat_us {
             return Some(self.heartbeat(now_us));
@@ -113,6 +142,7 @@ impl Vehicle {
         self.command_transmit(now_us)
             .or_else(|| self.param_transmit(now_us))
             .or_else(|| self.mission_transmit(now_us))
+            .or_else(|| self.ftp_transmit(now_us))
     }
 
     // Each service is called from functions of its own, kept out of line: one copy of its
@@ -136,6 +166,24 @@ impl Vehicle {
     #[inline(never)]
     fn mission_transmit(&mut self, now_us: u64) -> Option<Message> {
         self.missions.poll_transmit(self.mission_store, now_us)
+    }
+
+    #[inline(never)]
+    fn ftp_handle(&mut self, now_us: u64, from: Address, msg: &Message) {
+        let mut files = Files {
+            params: self.param_store,
+            with_defaults: &mut self.ftp_with_defaults,
+        };
+        self.ftp.handle(&mut files, now_us, from, msg);
+    }
+
+    #[inline(never)]
+    fn ftp_transmit(&mut self, now_us: u64) -> Option<Message> {
+        let mut files = Files {
+            params: self.param_store,
+            with_defaults: &mut self.ftp_with_defaults,
+        };
+        self.ftp.poll_transmit(&mut files, now_us)
     }
 
     #[inline(never)]

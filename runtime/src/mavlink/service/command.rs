@@ -36,7 +36,7 @@
 use super::messages::{
     CommandAck, CommandCancel, CommandInt, CommandLong, MavCmd, MavFrame, MavResult, Message,
 };
-use super::{div_f64, earliest, round_i32, Address, Retry};
+use super::{div_f64, earliest, round_i32, widen, Address, Retry};
 
 /// The two forms a command is sent in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -76,8 +76,9 @@ impl Command {
         Self {
             command,
             params: [p[0], p[1], p[2], p[3]],
-            x: f64::from(p[4]),
-            y: f64::from(p[5]),
+            // f64::from(p[4]), by the bits.
+            x: widen(p[4]),
+            y: widen(p[5]),
             z: p[6],
             frame: MavFrame::Global,
             form: Form::Long,

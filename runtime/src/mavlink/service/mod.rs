@@ -147,6 +147,26 @@ pub(crate) fn mul_round(v: f32, s: u32) -> i32 {
     }
 }
 
+/// `f64::from(v)`, by moving the bits: exact, a NaN made quiet as an FPU makes it.
+pub(crate) fn widen(v: f32) -> f64 {
+    let bits = v.to_bits();
+    let sign = u64::from(bits >> 31) << 63;
+    let biased = (bits >> 23) & 0xff;
+    let frac = u64::from(bits & 0x7f_ffff);
+    let magnitude = match biased {
+        0 if frac == 0 => 0,
+        // Subnormal: normal in f64. The leading 1 moves up to the implicit bit's place.
+        0 => {
+            let shift = frac.leading_zeros() - 40;
+            (u64::from(897 - shift) << 52) | (frac << shift & 0x7f_ffff) << 29
+        }
+        0xff if frac != 0 => 0x7ff8_u64 << 48 | frac << 29,
+        0xff => 0x7ff << 52,
+        _ => (u64::from(biased) + 896) << 52 | frac << 29,
+    };
+    f64::from_bits(sign | magnitude)
+}
+
 /// `f64::from(n) / f64::from(d)` (to nearest, ties to even) for `d` from 1 to 2²⁴ − 1.
 pub(crate) fn div_f64(n: i32, d: u32) -> f64 {
     if n == 0 {
@@ -159,17 +179,19 @@ pub(crate) fn div_f64(n: i32, d: u32) -> f64 {
     f64::from_bits(sign | biased << 52 | (m & ((1 << 52) - 1)))
 }
 
-/// `(f64::from(n) / f64::from(d)) as f32` for `d` from 1 to 2²⁴ − 1: the quotient rounded
-/// to `f64`'s 53 bits, then to `f32`'s 24.
+/// `(f64::from(n) / f64::from(d)) as f32` for `d` from 1 to 2²⁴ − 1: [`div_f64`]'s quotient
+/// rounded once more, from 53 bits to 24 (to nearest, ties to even).
 pub(crate) fn div_f32(n: i32, d: u32) -> f32 {
+    // 0 is 0.0 in both; any other quotient is a normal number within f32's range.
+    let bits = div_f64(n, d).to_bits();
     if n == 0 {
         return 0.0;
     }
-    let (q, e, sticky) = quotient(n.unsigned_abs(), d);
-    let (m, carry53) = round_bits(q, sticky, 53);
-    let (m, carry24) = round_bits(m << 11, false, 24);
-    let biased = (e + i32::from(carry53) + i32::from(carry24) + 127) as u32;
-    let sign = u32::from(n < 0) << 31;
+    // The quotient is between 2⁻²⁴ and 2³¹.
+    let m = bits & ((1 << 52) - 1) | 1 << 52;
+    let (m, carry) = round_bits(m << 11, false, 24);
+    let biased = (((bits >> 52) & 0x7ff) as i32 - 1023 + i32::from(carry) + 127) as u32;
+    let sign = ((bits >> 63) as u32) << 31;
     f32::from_bits(sign | biased << 23 | (m as u32 & 0x7f_ffff))
 }
 
@@ -265,5 +287,133 @@ impl Rtt {
         self.timeout_us(max_us)
             .saturating_mul(1 << tries.min(2))
             .min(max_us)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Integers over the whole `i32` range: every power of two and its neighbours, the scales'
+    /// multiples and halves (ties), and a pseudo-random spread.
+    fn integers() -> impl Iterator<Item = i32> {
+        let edges = (0..32).flat_map(|k| {
+            let p = 1i64 << k;
+            [p - 1, p, p + 1, -p - 1, -p, -p + 1]
+        });
+        let scaled = [1i64, 10_000, 10_000_000]
+            .into_iter()
+            .flat_map(|s| (-300..=300).flat_map(move |k| [k * s, k * s + s / 2, k * s - 1]));
+        let mut x = 0x1234_5678u32;
+        let random = (0..200_000).map(move |_| {
+            // xorshift32
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            i64::from(x as i32)
+        });
+        edges
+            .chain(scaled)
+            .chain(random)
+            .chain([i64::from(i32::MIN), i64::from(i32::MAX), 0])
+            .filter_map(|v| i32::try_from(v).ok())
+    }
+
+    /// Floats: the integers' values as floats and scaled down, halves, specials, and a
+    /// pseudo-random spread of bit patterns.
+    fn floats() -> impl Iterator<Item = f32> {
+        let mut x = 0x9e37_79b9u32;
+        let random = (0..300_000).map(move |_| {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            f32::from_bits(x)
+        });
+        let from_ints = integers().take(20_000).flat_map(|i| {
+            [
+                i as f32,
+                i as f32 / 1e7,
+                i as f32 / 1e4,
+                i as f32 + 0.5,
+                (i as f32 + 0.5) / 1e7,
+            ]
+        });
+        let special = [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            -2.5,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            214.748_36,
+            -214.748_36,
+            214.748_37,
+            -214.748_37,
+            180.0,
+            -180.0,
+        ];
+        special.into_iter().chain(from_ints).chain(random)
+    }
+
+    const SCALES: [u32; 3] = [1, 10_000, 10_000_000];
+
+    #[test]
+    fn widen_is_the_conversion() {
+        let subnormals = (0..23).flat_map(|k| [1u32 << k, (1 << k) | 1, (2 << k) - 1]);
+        let nans = [
+            0x7fc0_0000u32,
+            0x7f80_0001,
+            0x7fbf_ffff,
+            0xffc0_1234,
+            0xff80_0001,
+        ];
+        let bits = subnormals.chain(nans).chain(floats().map(f32::to_bits));
+        for b in bits.flat_map(|b| [b, b ^ 1 << 31]) {
+            let v = f32::from_bits(b);
+            assert_eq!(widen(v).to_bits(), f64::from(v).to_bits(), "{v:e} ({b:#x})");
+        }
+    }
+
+    #[test]
+    fn mul_round_is_the_f64_product_rounded() {
+        for s in SCALES {
+            for v in floats() {
+                assert_eq!(
+                    mul_round(v, s),
+                    round_i32(f64::from(v) * f64::from(s)),
+                    "{v:e} ({:#x}) × {s}",
+                    v.to_bits()
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn div_f64_is_the_f64_quotient() {
+        for s in SCALES {
+            for n in integers() {
+                let want = f64::from(n) / f64::from(s);
+                assert_eq!(div_f64(n, s).to_bits(), want.to_bits(), "{n} / {s}");
+            }
+        }
+    }
+
+    #[test]
+    fn div_f32_is_the_f64_quotient_as_f32() {
+        for s in SCALES {
+            for n in integers() {
+                let want = (f64::from(n) / f64::from(s)) as f32;
+                assert_eq!(div_f32(n, s).to_bits(), want.to_bits(), "{n} / {s}");
+            }
+        }
     }
 }

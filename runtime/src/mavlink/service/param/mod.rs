@@ -277,3 +277,89 @@ pub struct Received {
     /// The value, decoded with the sender's encoding; `None` for a type a float cannot carry.
     pub value: Option<Value>,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::vec;
+    use std::vec::Vec;
+
+    const TYPES: [MavParamType; 9] = [
+        MavParamType::Uint8,
+        MavParamType::Int8,
+        MavParamType::Uint16,
+        MavParamType::Int16,
+        MavParamType::Uint32,
+        MavParamType::Int32,
+        MavParamType::Real32,
+        MavParamType::Uint64,
+        MavParamType::Real64,
+    ];
+
+    /// Values of every type: the integer types' edges and their neighbours, floats around
+    /// them, fractions, specials, and a pseudo-random spread of bit patterns.
+    fn values() -> Vec<Value> {
+        let mut ints: Vec<i64> = vec![0, 1, -1, 2, -2, 100, -100];
+        for k in [7, 8, 15, 16, 24, 25, 31, 32] {
+            let p = 1i64 << k;
+            ints.extend([p - 1, p, p + 1, -p - 1, -p, -p + 1]);
+        }
+        let mut x = 0x2545_f491u32;
+        let mut out = Vec::new();
+        for _ in 0..20_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            ints.push(i64::from(x as i32));
+            ints.push(i64::from(x));
+            out.push(Value::F32(f32::from_bits(x)));
+        }
+        for &i in &ints {
+            out.extend(u8::try_from(i).ok().map(Value::U8));
+            out.extend(i8::try_from(i).ok().map(Value::I8));
+            out.extend(u16::try_from(i).ok().map(Value::U16));
+            out.extend(i16::try_from(i).ok().map(Value::I16));
+            out.extend(u32::try_from(i).ok().map(Value::U32));
+            out.extend(i32::try_from(i).ok().map(Value::I32));
+            let f = i as f32;
+            out.extend([f, -f, f + 0.5, f - 0.5, f.next_up(), f.next_down()].map(Value::F32));
+        }
+        out.extend(
+            [
+                -0.0,
+                0.25,
+                f32::MIN_POSITIVE,
+                f32::MAX,
+                f32::MIN,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+                f32::NAN,
+                4_294_967_296.0,
+                -2_147_483_648.0,
+                -2_147_483_904.0,
+            ]
+            .map(Value::F32),
+        );
+        out
+    }
+
+    #[test]
+    fn convert_is_the_conversion_through_f64() {
+        for v in values() {
+            for ty in TYPES {
+                let want = if v.param_type() == ty {
+                    Some(v)
+                } else {
+                    Value::from_f64(ty, v.as_f64())
+                };
+                let got = v.convert(ty);
+                let same = match (got, want) {
+                    (Some(a), Some(b)) => a.same(b),
+                    (None, None) => true,
+                    _ => false,
+                };
+                assert!(same, "{v:?} as {ty:?}: {got:?}, want {want:?}");
+            }
+        }
+    }
+}
