@@ -3,50 +3,8 @@
 
 use super::super::messages::Message;
 use super::super::{Address, Busy, Retry, Rtt};
+use super::buffers::{Chunk, Gaps, Source};
 use super::{entries, Nak, Opcode, Payload, MAX_DATA};
-
-/// Where an upload's bytes come from.
-pub trait Source {
-    /// Fills `buf` with the bytes at `offset`; how many (fewer only at the end).
-    fn read(&mut self, offset: u32, buf: &mut [u8]) -> usize;
-}
-
-impl Source for [u8] {
-    fn read(&mut self, offset: u32, buf: &mut [u8]) -> usize {
-        let rest = self.get(offset as usize..).unwrap_or(&[]);
-        let n = rest.len().min(buf.len());
-        buf[..n].copy_from_slice(&rest[..n]);
-        n
-    }
-}
-
-/// Nothing to upload: for the operations that send no file.
-impl Source for () {
-    fn read(&mut self, _offset: u32, _buf: &mut [u8]) -> usize {
-        0
-    }
-}
-
-/// Up to [`MAX_DATA`] bytes of a reply.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Chunk {
-    len: u8,
-    data: [u8; MAX_DATA],
-}
-
-impl Chunk {
-    fn new(bytes: &[u8]) -> Self {
-        let mut data = [0; MAX_DATA];
-        let n = bytes.len().min(MAX_DATA);
-        data[..n].copy_from_slice(&bytes[..n]);
-        Self { len: n as u8, data }
-    }
-
-    /// The bytes.
-    pub fn as_slice(&self) -> &[u8] {
-        &self.data[..usize::from(self.len)]
-    }
-}
 
 /// Why an operation failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -116,7 +74,6 @@ impl ClientConfig {
 }
 
 const SLOTS: usize = 16;
-const GAPS: usize = 64;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Phase {
@@ -149,81 +106,6 @@ struct Pending {
     deadline: u64,
     due: bool,
     sent_us: Option<u64>,
-}
-
-/// The byte ranges still missing below the burst's high-water mark, sorted.
-#[derive(Debug, Clone, Copy)]
-struct Gaps {
-    ranges: [(u32, u32); GAPS],
-    len: usize,
-}
-
-impl Gaps {
-    const fn new() -> Self {
-        Self {
-            ranges: [(0, 0); GAPS],
-            len: 0,
-        }
-    }
-
-    fn as_slice(&self) -> &[(u32, u32)] {
-        &self.ranges[..self.len]
-    }
-
-    fn is_full(&self) -> bool {
-        self.len == GAPS
-    }
-
-    fn missing(&self) -> u32 {
-        self.as_slice().iter().map(|(s, e)| e - s).sum()
-    }
-
-    /// Adds `[start, end)` above every other range; `false` when full.
-    fn push(&mut self, start: u32, end: u32) -> bool {
-        if self.is_full() {
-            return false;
-        }
-        self.ranges[self.len] = (start, end);
-        self.len += 1;
-        true
-    }
-
-    /// Removes `[start, end)` from the ranges; whether any byte was missing. A range that
-    /// would split in two with no room left stays missing whole.
-    fn fill(&mut self, start: u32, end: u32) -> bool {
-        let mut any = false;
-        let mut i = 0;
-        while i < self.len {
-            let (s, e) = self.ranges[i];
-            if end <= s || start >= e {
-                i += 1;
-                continue;
-            }
-            any = true;
-            match (start <= s, end >= e) {
-                (true, true) => {
-                    self.ranges.copy_within(i + 1..self.len, i);
-                    self.len -= 1;
-                    continue;
-                }
-                (true, false) => self.ranges[i].0 = end,
-                (false, true) => self.ranges[i].1 = start,
-                (false, false) => {
-                    // Split in two; with no room for the second, the whole range stays
-                    // missing (read again later), never a part of it forgotten.
-                    if !self.is_full() {
-                        self.ranges[i].1 = start;
-                        self.ranges.copy_within(i + 1..self.len, i + 2);
-                        self.ranges[i + 1] = (end, e);
-                        self.len += 1;
-                        i += 1;
-                    }
-                }
-            }
-            i += 1;
-        }
-        any
-    }
 }
 
 /// The FTP client for one target, one operation at a time.

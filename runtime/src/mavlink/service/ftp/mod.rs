@@ -17,10 +17,12 @@
 //!   fails such a read, so [`Client`] never asks for more than is left).
 //! - `CalcFileCRC32` is [`crate::crc::FTP_CRC32`]: zlib's table from 0, no final xor.
 
+mod buffers;
 mod client;
 mod server;
 
-pub use client::{Chunk, Client, ClientConfig, Error, Event, Source};
+pub use buffers::{Chunk, Source};
+pub use client::{Client, ClientConfig, Error, Event};
 pub use server::{Server, ServerConfig};
 
 use super::messages::{FileTransferProtocol, Message};
