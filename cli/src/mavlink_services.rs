@@ -16,7 +16,7 @@ use ferrolink_runtime::mavlink::service::command::Command as MavCommand;
 use ferrolink_runtime::mavlink::service::messages::{
     MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavMissionType, MavResult, MavType,
 };
-use ferrolink_runtime::mavlink::service::param::{Received, Value};
+use ferrolink_runtime::mavlink::service::param::{self, Protocol, Received, Value};
 use ferrolink_runtime::mavlink::service::Address;
 
 use crate::dialect::Dialects;
@@ -56,6 +56,10 @@ pub enum ParamCommand {
         /// Give up after SECS seconds.
         #[arg(long, value_name = "SECS", default_value_t = 60.0)]
         timeout: f64,
+        /// Speak PARAM_EXT_* (cameras' and gimbals' protocol, 64-bit values whole) instead of
+        /// PARAM_*.
+        #[arg(long)]
+        ext: bool,
     },
     /// Read one parameter and print it as a JSON line.
     Get {
@@ -65,6 +69,10 @@ pub enum ParamCommand {
         name: String,
         #[command(flatten)]
         target: TargetArg,
+        /// Speak PARAM_EXT_* (cameras' and gimbals' protocol, 64-bit values whole) instead of
+        /// PARAM_*.
+        #[arg(long)]
+        ext: bool,
     },
     /// Set one parameter and print what the vehicle reports; exit 0 only when it confirms
     /// exactly the value set.
@@ -76,12 +84,16 @@ pub enum ParamCommand {
         /// The value.
         #[arg(allow_negative_numbers = true)]
         value: String,
-        /// UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32 [default: the parameter's type,
-        /// read first].
+        /// UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32, and with --ext UINT64, INT64
+        /// or REAL64 [default: the parameter's type, read first].
         #[arg(long = "type", value_name = "TYPE")]
         ty: Option<String>,
         #[command(flatten)]
         target: TargetArg,
+        /// Speak PARAM_EXT_* (cameras' and gimbals' protocol, 64-bit values whole) instead of
+        /// PARAM_*.
+        #[arg(long)]
+        ext: bool,
     },
 }
 
@@ -222,10 +234,11 @@ pub(crate) fn find_target(link: &mut Connection, uri: &str, target: TargetArg) -
 /// "index": I}`, integers as JSON integers.
 fn value_line(r: &Received) -> String {
     let value = match r.value {
-        // The shortest text that reads back as the same f32.
-        Some(Value::F32(v)) if v.is_finite() => format!("{v:?}"),
-        Some(Value::F32(_)) | None => "null".into(),
-        Some(v) => (v.as_f64() as i64).to_string(),
+        // Integers whole; floats as the shortest text that reads back as the same value.
+        Some(Value::F32(v)) if !v.is_finite() => "null".into(),
+        Some(Value::F64(v)) if !v.is_finite() => "null".into(),
+        Some(v) => v.to_string(),
+        None => "null".into(),
     };
     let ty = r
         .value
@@ -254,12 +267,13 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
             uri,
             target,
             timeout,
+            ext,
         } => {
             let timeout = Duration::try_from_secs_f64(timeout)
                 .map_err(|e| format!("--timeout {timeout}: {e}"))?;
             let mut link = open(&uri)?;
             let peer = find_target(&mut link, &uri, target)?;
-            let mut remote = Remote::new(&mut link, peer);
+            let mut remote = param_remote(&mut link, peer, ext);
             let list = remote.fetch_params(timeout, |_| {})?;
             let mut out = std::io::stdout().lock();
             for r in list.values.iter().flatten() {
@@ -287,11 +301,16 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        ParamCommand::Get { uri, name, target } => {
+        ParamCommand::Get {
+            uri,
+            name,
+            target,
+            ext,
+        } => {
             check_name(&name)?;
             let mut link = open(&uri)?;
             let peer = find_target(&mut link, &uri, target)?;
-            let mut remote = Remote::new(&mut link, peer);
+            let mut remote = param_remote(&mut link, peer, ext);
             match remote.read_param(&name)? {
                 Some(r) => {
                     println!("{}", value_line(&r));
@@ -306,27 +325,40 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
             value,
             ty,
             target,
+            ext,
         } => {
             check_name(&name)?;
             let ty = ty
                 .map(|t| {
-                    paramfile::param_type(&t).ok_or_else(|| {
-                        format!(
-                            "--type {t}: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32"
-                        )
-                    })
+                    paramfile::param_type(&t)
+                        .filter(|t| ext || !param::is_wide(*t))
+                        .ok_or_else(|| {
+                            format!(
+                                "--type {t}: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or \
+                                 REAL32{}",
+                                if ext {
+                                    ", UINT64, INT64 or REAL64"
+                                } else {
+                                    " (and with --ext UINT64, INT64 or REAL64)"
+                                }
+                            )
+                        })
                 })
                 .transpose()?;
             let mut link = open(&uri)?;
             let peer = find_target(&mut link, &uri, target)?;
-            let mut remote = Remote::new(&mut link, peer);
-            let ty = match ty {
-                Some(ty) => ty,
-                None => match remote.read_param(&name)? {
-                    Some(Received { value: Some(v), .. }) => v.param_type(),
+            let mut remote = param_remote(&mut link, peer, ext);
+            // The type, if not given, and for PARAM_EXT_ACK (which has none) the index.
+            let read = match (ty, ext) {
+                (Some(_), false) => None,
+                _ => match remote.read_param(&name)? {
+                    Some(r @ Received { value: Some(_), .. }) => Some(r),
                     _ => return Err(unknown(&name, peer)),
                 },
             };
+            let ty = ty
+                .or(read.and_then(|r| r.value).map(|v| v.param_type()))
+                .ok_or_else(|| unknown(&name, peer))?;
             let value = paramfile::parse_value(ty, &value).ok_or_else(|| {
                 format!(
                     "`{value}` is not a value of type {}",
@@ -334,19 +366,36 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
                 )
             })?;
             match remote.set_param(&name, value)? {
-                Some(r) => {
+                Some(mut r) => {
+                    if let (u16::MAX, Some(read)) = (r.index, read) {
+                        r.index = read.index;
+                    }
                     println!("{}", value_line(&r));
-                    if r.value.is_some_and(|v| v.same(value)) {
-                        Ok(ExitCode::SUCCESS)
-                    } else {
-                        eprintln!("the vehicle holds another value than the one set");
-                        Ok(ExitCode::FAILURE)
+                    match r.value {
+                        Some(v) if v.same(value) => Ok(ExitCode::SUCCESS),
+                        Some(_) => {
+                            eprintln!("the vehicle holds another value than the one set");
+                            Ok(ExitCode::FAILURE)
+                        }
+                        None => {
+                            eprintln!("the vehicle refused the value");
+                            Ok(ExitCode::FAILURE)
+                        }
                     }
                 }
                 None => Err(unknown(&name, peer)),
             }
         }
     }
+}
+
+/// A client of `peer`'s parameters, speaking PARAM_EXT_* when `ext`.
+fn param_remote(link: &mut Connection, peer: Peer, ext: bool) -> Remote<'_> {
+    let mut remote = Remote::new(link, peer);
+    if ext {
+        remote.param_config.protocol = Protocol::Ext;
+    }
+    remote
 }
 
 fn check_name(name: &str) -> Result<()> {

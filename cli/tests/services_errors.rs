@@ -53,7 +53,8 @@ fn a_bad_target_and_a_bad_type() {
         err.contains("write the target as SYS/COMP, e.g. 1/1"),
         "{err}"
     );
-    insta::assert_snapshot!(refused(&["param", "set", "udpin://127.0.0.1:0", "X", "1", "--type", "INT64"], 1), @"--type INT64: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32");
+    insta::assert_snapshot!(refused(&["param", "set", "udpin://127.0.0.1:0", "X", "1", "--type", "INT64"], 1), @"--type INT64: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32 (and with --ext UINT64, INT64 or REAL64)");
+    insta::assert_snapshot!(refused(&["param", "set", "udpin://127.0.0.1:0", "X", "1", "--type", "INT128", "--ext"], 1), @"--type INT128: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32, UINT64, INT64 or REAL64");
 }
 
 #[test]
@@ -71,7 +72,7 @@ fn unreadable_and_malformed_files() {
     );
     assert!(err.contains("missing.params: cannot read it"), "{err}");
     let bad = dir.path().join("bad.params");
-    std::fs::write(&bad, "1\t1\tA\t1.5\t6\n1\t1\tB\t1\t7\n").unwrap();
+    std::fs::write(&bad, "1\t1\tA\t1.5\t6\n1\t1\tB\t1\t12\n").unwrap();
     let err = refused(
         &[
             "vehicle",
@@ -84,7 +85,7 @@ fn unreadable_and_malformed_files() {
     let err = err.replace(bad.to_str().unwrap(), "bad.params");
     insta::assert_snapshot!(err, @r"
     bad.params:1: `1.5` is not a value of type INT32
-    bad.params:2: type `7` is not one of 1 to 6 or 9 (UINT8 to INT32, REAL32)
+    bad.params:2: type `12` is not one of 1 to 10 (UINT8 to INT64, REAL32, REAL64)
     ");
     let wpl = dir.path().join("bad.waypoints");
     std::fs::write(&wpl, "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t1\t2\n").unwrap();

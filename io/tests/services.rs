@@ -1,5 +1,5 @@
 //! The blocking client against the software vehicle, in one process over loopback UDP:
-//! parameters with PX4's `_HASH_CHECK`, and files over FTP.
+//! parameters with PX4's `_HASH_CHECK` and over PARAM_EXT_*, and files over FTP.
 
 use std::net::UdpSocket;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -9,7 +9,7 @@ use std::time::Duration;
 use ferrolink_io::mavlink::services::{self, Remote};
 use ferrolink_io::mavlink::{vehicle, Connection};
 use ferrolink_runtime::mavlink::service::messages::{MavAutopilot, MavType};
-use ferrolink_runtime::mavlink::service::param::{Name, Param, Value};
+use ferrolink_runtime::mavlink::service::param::{Name, Param, Protocol, Value};
 use ferrolink_runtime::mavlink::service::Address;
 
 fn free_port() -> u16 {
@@ -21,21 +21,40 @@ fn free_port() -> u16 {
 
 /// A PX4 vehicle with 40 parameters and `root` as its FTP root, on a thread until `stop`.
 fn vehicle(root: &std::path::Path, stop: &Arc<AtomicBool>) -> (u16, std::thread::JoinHandle<()>) {
+    let params = (0..40)
+        .map(|i| {
+            param(
+                &format!("P{i}"),
+                if i % 2 == 0 {
+                    Value::I32(i * 3)
+                } else {
+                    Value::F32(i as f32 / 4.0)
+                },
+            )
+        })
+        .collect();
+    vehicle_with(params, root, stop)
+}
+
+fn param(name: &str, value: Value) -> Param {
+    Param {
+        name: Name::from(name),
+        value,
+    }
+}
+
+/// A PX4 vehicle with `params` and `root` as its FTP root, on a thread until `stop`.
+fn vehicle_with(
+    params: Vec<Param>,
+    root: &std::path::Path,
+    stop: &Arc<AtomicBool>,
+) -> (u16, std::thread::JoinHandle<()>) {
     let port = free_port();
     let config = vehicle::Config {
         address: Address::new(1, 1),
         autopilot: MavAutopilot::Px4,
         kind: MavType::Quadrotor,
-        params: (0..40)
-            .map(|i| Param {
-                name: Name::from(format!("P{i}").as_str()),
-                value: if i % 2 == 0 {
-                    Value::I32(i * 3)
-                } else {
-                    Value::F32(i as f32 / 4.0)
-                },
-            })
-            .collect(),
+        params,
         table: services::TABLE.into(),
         ftp_root: Some(root.to_path_buf()),
     };
@@ -88,6 +107,50 @@ fn a_cached_parameter_list_is_kept_while_the_hash_check_is_unchanged() {
         .unwrap());
     assert_ne!(cache.hash, before.hash);
     assert_eq!(cache.values[3].unwrap().value, Some(Value::F32(99.5)));
+    stop.store(true, Ordering::Relaxed);
+    thread.join().unwrap();
+}
+
+#[test]
+fn the_extended_protocol_carries_64_bit_values_whole() {
+    let root = tempfile::tempdir().unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let params = vec![
+        param("U64", Value::U64(u64::MAX - 5)),
+        param("I64", Value::I64(i64::MIN + 7)),
+        param("F64", Value::F64(0.1)),
+        param("I32", Value::I32(-5)),
+        param("F32", Value::F32(0.25)),
+    ];
+    let (port, thread) = vehicle_with(params.clone(), root.path(), &stop);
+    let (mut link, peer) = connect(port);
+    let mut remote = Remote::new(&mut link, peer);
+    // PARAM_VALUE cannot carry the 64-bit values: listed, without them.
+    let v1 = remote
+        .fetch_params(Duration::from_secs(10), |_| {})
+        .unwrap();
+    let values: Vec<_> = v1.values.iter().map(|r| r.unwrap().value).collect();
+    assert_eq!(values[..3], [None, None, None]);
+    assert_eq!(values[3..], [Some(Value::I32(-5)), Some(Value::F32(0.25))]);
+    remote.param_config.protocol = Protocol::Ext;
+    let ext = remote
+        .fetch_params(Duration::from_secs(10), |_| {})
+        .unwrap();
+    assert_eq!((ext.count, ext.missing(), ext.hash), (5, 0, None));
+    for (r, p) in ext.values.iter().zip(&params) {
+        let r = r.unwrap();
+        assert_eq!((r.name, r.value), (p.name, Some(p.value)));
+    }
+    let big = Value::U64(1 << 60 | 3);
+    let set = remote.set_param("U64", big).unwrap().unwrap();
+    assert_eq!(set.value, Some(big));
+    let read = remote.read_param("U64").unwrap().unwrap();
+    assert_eq!((read.index, read.value), (0, Some(big)));
+    // A fraction for an integer parameter: refused, and nothing changes.
+    let refused = remote.set_param("I32", Value::F64(0.5)).unwrap().unwrap();
+    assert_eq!(refused.value, None);
+    let read = remote.read_param("I32").unwrap().unwrap();
+    assert_eq!(read.value, Some(Value::I32(-5)));
     stop.store(true, Ordering::Relaxed);
     thread.join().unwrap();
 }

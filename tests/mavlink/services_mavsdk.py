@@ -9,6 +9,15 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
                      ``ferrolink mavlink vehicle``, once claiming PX4 (bytewise integers) and
                      once ArduPilot (C-cast integers): every parameter listed with its value,
                      an int and a float set and read back.
+  mavsdk_param_ext   MAVSDK's Param plugin speaking PARAM_EXT_* (select_component with
+                     ProtocolVersion.EXT) against our vehicle, whose parameters include the
+                     64-bit types: every value MAVSDK lists exact, an int and a float set and
+                     read back; then ``param list --ext`` sees MAVSDK's sets and every 64-bit
+                     value whole, and plain ``param list`` lists them without a value.
+  our_param_ext      ``ferrolink mavlink param list|get|set --ext`` against MAVSDK's
+                     ParamServer speaking PARAM_EXT_* (set_protocol(True)), with a CUSTOM
+                     parameter among the rest: every value listed bit-exact (CUSTOM without
+                     one), an int and a float set, and MAVSDK's server reports the change.
   mavsdk_action      MAVSDK's Action plugin arms our vehicle, takes off and disarms.
   our_params         ``ferrolink mavlink param list|get|set`` against a vehicle built from
                      MAVSDK's ParamServer plugin: every value listed bit-exact, an int and a
@@ -41,9 +50,10 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
                      through 5 % (it gives an item up after a few losses in a row), and the
                      relay towards MAVSDK's server does not repeat (it stores repeats).
 
-Known MAVSDK 4.1 quirk taken into account: ``get_all_params`` leaves out the unsigned integer
+Known MAVSDK 4.1 quirks taken into account: ``get_all_params`` leaves out the unsigned integer
 types (UINT8, UINT16 and UINT32), so MAVSDK's listing is compared on the signed ones and the
-floats; our own client checks the unsigned ones against the same vehicle.
+floats; our own client checks the unsigned ones against the same vehicle. Its
+``select_component`` reports UNKNOWN after it has made the choice, every time.
 """
 import argparse
 import asyncio
@@ -98,6 +108,12 @@ PARAMS = [
 ]
 INTS = {n: v for n, t, v in PARAMS if t != 9}
 FLOATS = {n: f32(v) for n, t, v in PARAMS if t == 9}
+# And the 64-bit types, which PARAM_EXT_* carry whole: values no f64 holds exactly.
+WIDE = [
+    ("U64_PARAM", 7, 18446744073709551557),
+    ("I64_PARAM", 8, -9007199254740993),
+    ("F64_PARAM", 10, 0.1),
+]
 
 
 def mission_spec(n=5):
@@ -160,10 +176,10 @@ def read_wpl(text):
     return [WplItem(l) for l in lines[1:]]
 
 
-def write_params(path):
+def write_params(path, params=PARAMS):
     with open(path, "w") as f:
         f.write("# Vehicle-Id Component-Id Name Value Type\n")
-        for name, ty, value in PARAMS:
+        for name, ty, value in params:
             f.write("1\t1\t%s\t%r\t%d\n" % (name, value, ty))
 
 
@@ -182,6 +198,8 @@ class Relay:
         self.loss, self.dup, self.reorder, self.delay, self.jitter = loss, dup, reorder, delay, jitter
         self.lock = threading.Lock()
         self.stats = {"datagrams": 0, "lost": 0, "repeated": 0, "delayed": 0}
+        # Message ids of the MAVLink 2 frames that started datagrams: {(from_front, id): n}.
+        self.ids = {}
         self.stop = threading.Event()
         self.threads = [threading.Thread(target=self.pump, args=(self.front, True), daemon=True),
                         threading.Thread(target=self.pump, args=(self.back, False), daemon=True)]
@@ -221,6 +239,9 @@ class Relay:
                 out, to = self.front, self.front_peer
             with self.lock:
                 self.stats["datagrams"] += 1
+                if len(data) >= 10 and data[0] == 0xFD:
+                    key = (from_front, int.from_bytes(data[7:10], "little"))
+                    self.ids[key] = self.ids.get(key, 0) + 1
                 if self.rng.random() < self.loss:
                     self.stats["lost"] += 1
                     continue
@@ -245,9 +266,10 @@ class Relay:
         self.back.close()
 
 
-async def start_vehicle(args, autopilot, port, seconds=60, ftp_root=None):
+async def start_vehicle(args, autopilot, port, seconds=60, ftp_root=None, params=PARAMS):
+    spec = params
     params = os.path.join(args.workdir, "vehicle.params")
-    write_params(params)
+    write_params(params, spec)
     extra = ["--ftp-root", ftp_root] if ftp_root else []
     proc = await asyncio.create_subprocess_exec(
         args.ferrolink, "mavlink", "vehicle", "--params", params, "--autopilot", autopilot,
@@ -342,6 +364,117 @@ async def check_mavsdk_params(args):
         finally:
             await stop(vehicle)
     return "; ".join(notes)
+
+
+async def check_mavsdk_param_ext(args):
+    from mavsdk.asyncio.plugins.param import ParamAsync, ProtocolVersion
+    from mavsdk.plugins.param.param import ParamError, ParamResult
+    port = free_udp_port()
+    # A relay that loses nothing, to see which messages MAVSDK speaks.
+    relay = Relay((HOST, port), args.seed, loss=0, dup=0, reorder=0)
+    vehicle = await start_vehicle(args, "px4", relay.port, params=PARAMS + WIDE)
+    uri = "udpin://%s:%d" % (HOST, port)
+    try:
+        mavsdk, system = await mavsdk_gcs(uri)
+        try:
+            param = ParamAsync(system)
+            try:
+                await param.select_component(1, ProtocolVersion.EXT)
+            except ParamError as e:
+                # MAVSDK 4.1 makes the choice and then reports UNKNOWN, whatever happens.
+                if e.result != ParamResult.UNKNOWN:
+                    raise
+            n = compare_listing(await param.get_all_params(), INTS, FLOATS)
+            await param.set_param_int("I32_PARAM", -123456)
+            await param.set_param_float("F_PARAM", 2.5)
+            got_i = await param.get_param_int("I32_PARAM")
+            got_f = await param.get_param_float("F_PARAM")
+            if (got_i, got_f) != (-123456, 2.5):
+                raise CheckFailed("read back %s and %s after setting -123456 and 2.5"
+                                  % (got_i, got_f))
+        finally:
+            await mavsdk.__aexit__(None, None, None)
+        # MAVSDK asked in PARAM_EXT_* (list, set), never in PARAM_*, and we answered in kind.
+        ids = dict(relay.ids)
+        spoke = {i for (front, i), n in ids.items() if not front}
+        answered = {i for (front, i), n in ids.items() if front}
+        if not {321, 323} <= spoke or spoke & {20, 21, 23} or not {322, 324} <= answered:
+            raise CheckFailed("messages MAVSDK sent %s, the vehicle %s" % (spoke, answered))
+        rc, out, err = await ferrolink(args, "param", "list", uri, "--ext")
+        if rc != 0:
+            raise CheckFailed("param list --ext exited %d: %s" % (rc, err))
+        got = {l["name"]: l for l in map(json.loads, out.splitlines())}
+        want = dict(INTS, I32_PARAM=-123456, U64_PARAM=WIDE[0][2], I64_PARAM=WIDE[1][2],
+                    F64_PARAM=WIDE[2][2])
+        for name, value in want.items():
+            if got.get(name, {}).get("value") != value:
+                raise CheckFailed("param list --ext had %s = %r, not %r"
+                                  % (name, got.get(name), value))
+        if f32(got["F_PARAM"]["value"]) != 2.5 or got["F64_PARAM"]["type"] != "REAL64":
+            raise CheckFailed("param list --ext: %r, %r" % (got["F_PARAM"], got["F64_PARAM"]))
+        rc, out, err = await ferrolink(args, "param", "list", uri)
+        plain = {l["name"]: l for l in map(json.loads, out.splitlines())}
+        if rc != 0 or plain["U64_PARAM"]["value"] is not None or len(plain) != len(got):
+            raise CheckFailed("plain param list: %d %r %s" % (rc, plain.get("U64_PARAM"), err))
+    finally:
+        await stop(vehicle)
+        relay.close()
+    return "%d listed by MAVSDK over PARAM_EXT, int and float set; ours: %d, 64-bit whole" % (
+        n, len(got))
+
+
+async def check_our_param_ext(args):
+    from mavsdk.asyncio.plugins.param_server import ParamServerAsync
+    from mavsdk.asyncio import Mavsdk, Configuration, ComponentType
+    port = free_udp_port()
+    uri = "udpin://%s:%d" % (HOST, port)
+    cfg = Configuration.create_with_component_type(ComponentType.AUTOPILOT)
+    cfg.system_id = 1
+    cfg.component_id = 1
+    mavsdk = Mavsdk(cfg)
+    await mavsdk.__aenter__()
+    events = []
+    tasks = []
+    try:
+        await mavsdk.add_any_connection("udpout://%s:%d" % (HOST, port))
+        server = ParamServerAsync(await mavsdk.server_component())
+        await server.set_protocol(True)
+        for name, value in INTS.items():
+            await server.provide_param_int(name, value)
+        for name, value in FLOATS.items():
+            await server.provide_param_float(name, value)
+        await server.provide_param_custom("CUSTOM_PARAM", "a camera's own text")
+
+        async def watch_ints():
+            async for p in server.subscribe_changed_param_int():
+                events.append(("int", p.name, p.value))
+
+        async def watch_floats():
+            async for p in server.subscribe_changed_param_float():
+                events.append(("float", p.name, p.value))
+        tasks += [asyncio.ensure_future(watch_ints()), asyncio.ensure_future(watch_floats())]
+        rc, out, err = await ferrolink(args, "param", "list", uri, "--ext", "--timeout", "30")
+        if rc != 0:
+            raise CheckFailed("param list --ext exited %d: %s" % (rc, err))
+        n = check_list_output(out, "param list --ext")
+        custom = [json.loads(l) for l in out.splitlines() if "CUSTOM_PARAM" in l]
+        if len(custom) != 1 or custom[0]["value"] is not None:
+            raise CheckFailed("CUSTOM_PARAM listed as %r" % custom)
+        rc, out, err = await ferrolink(args, "param", "set", uri, "I32_PARAM", "-77", "--ext")
+        if rc != 0 or json.loads(out)["value"] != -77:
+            raise CheckFailed("param set --ext int: %d %r %r" % (rc, out, err))
+        rc, out, err = await ferrolink(args, "param", "set", uri, "F_PARAM", "0.25", "--ext")
+        if rc != 0 or json.loads(out)["value"] != 0.25:
+            raise CheckFailed("param set --ext float: %d %r %r" % (rc, out, err))
+        rc, out, err = await ferrolink(args, "param", "get", uri, "F_NEG", "--ext")
+        if rc != 0 or f32(json.loads(out)["value"]) != FLOATS["F_NEG"]:
+            raise CheckFailed("param get --ext: %d %r %r" % (rc, out, err))
+        await asyncio.sleep(0.5)
+        if ("int", "I32_PARAM", -77) not in events or ("float", "F_PARAM", 0.25) not in events:
+            raise CheckFailed("MAVSDK's ParamServer saw %s" % events)
+    finally:
+        await close_vehicle(mavsdk, tasks)
+    return "%d listed bit-exact over PARAM_EXT (CUSTOM without a value), int and float set" % n
 
 
 async def check_mavsdk_action(args):
@@ -846,6 +979,8 @@ async def check_lossy_ftp(args):
 
 CHECKS = {
     "mavsdk_params": check_mavsdk_params,
+    "mavsdk_param_ext": check_mavsdk_param_ext,
+    "our_param_ext": check_our_param_ext,
     "mavsdk_action": check_mavsdk_action,
     "our_params": check_our_params,
     "our_command": check_our_command,

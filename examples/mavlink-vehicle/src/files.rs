@@ -66,7 +66,9 @@ fn packed_type(v: Value) -> (u8, u32) {
         Value::I8(_) => (1, 1),
         Value::U8(_) | Value::I16(_) => (2, 2),
         Value::U16(_) | Value::U32(_) | Value::I32(_) => (3, 4),
-        Value::F32(_) => (4, 4),
+        // The format has no 64-bit type: such a value would go as FLOAT, its number rounded,
+        // as PARAM_VALUE carries it (the table has none).
+        Value::F32(_) | Value::U64(_) | Value::I64(_) | Value::F64(_) => (4, 4),
     }
 }
 
@@ -104,7 +106,7 @@ pub fn param_pck(params: &Params, defaults: bool, offset: u32, buf: &mut [u8]) -
             .min(15);
         last = name;
         let rest = &name[common..];
-        let value = params.value(index as u16).unwrap_or(param.value);
+        let value = params.value(index as u16).unwrap_or(param.default());
         let (ty, size) = packed_type(value);
         // Zero bytes first if the value and the default would cross a block's end.
         let data = end + 2 + rest.len() as u32;
@@ -115,7 +117,11 @@ pub fn param_pck(params: &Params, defaults: bool, offset: u32, buf: &mut [u8]) -
         } as usize;
         // The bytewise encoding is the integer's bits, as wide as the packed type needs
         // (a UINT8 zero-extended to INT16, a UINT16 to INT32).
-        let bits = |v: Value| v.encode(Encoding::Bytewise).to_bits().to_le_bytes();
+        // (None of 64 bits: their code is left out.)
+        let bits = |v: Value| {
+            let f = v.encode_narrow(Encoding::Bytewise).unwrap_or_default();
+            f.to_bits().to_le_bytes()
+        };
         let mut piece = [0u8; 8 + 2 + 16 + 8];
         piece[pad] = ty | u8::from(defaults) << 4;
         piece[pad + 1] = common as u8 | ((rest.len() - 1) as u8) << 4;
@@ -125,7 +131,7 @@ pub fn param_pck(params: &Params, defaults: bool, offset: u32, buf: &mut [u8]) -
         piece[n..n + size].copy_from_slice(&bits(value)[..size]);
         n += size;
         if defaults {
-            piece[n..n + size].copy_from_slice(&bits(param.value)[..size]);
+            piece[n..n + size].copy_from_slice(&bits(param.default())[..size]);
             n += size;
         }
         end = put(&piece[..n]);

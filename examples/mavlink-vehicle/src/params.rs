@@ -27,10 +27,73 @@ const fn name(text: &str) -> Name {
     CharArray(out)
 }
 
-const fn p(text: &str, value: Value) -> Param {
-    Param {
+const fn p(text: &str, value: Value) -> Entry {
+    Entry {
         name: name(text),
-        value,
+        default: Narrow::from_value(value),
+    }
+}
+
+/// A [`Value`] of 32 bits or fewer, in 8 bytes (a `Value`, which can hold 64 bits, takes 16).
+#[derive(Debug, Clone, Copy)]
+enum Narrow {
+    U8(u8),
+    I8(i8),
+    U16(u16),
+    I16(i16),
+    U32(u32),
+    I32(i32),
+    F32(f32),
+}
+
+impl Narrow {
+    /// `v`, or `None` for the 64-bit types, which no parameter here has.
+    const fn new(v: Value) -> Option<Self> {
+        Some(match v {
+            Value::U8(v) => Narrow::U8(v),
+            Value::I8(v) => Narrow::I8(v),
+            Value::U16(v) => Narrow::U16(v),
+            Value::I16(v) => Narrow::I16(v),
+            Value::U32(v) => Narrow::U32(v),
+            Value::I32(v) => Narrow::I32(v),
+            Value::F32(v) => Narrow::F32(v),
+            Value::U64(_) | Value::I64(_) | Value::F64(_) => return None,
+        })
+    }
+
+    /// `v`, at compile time.
+    const fn from_value(v: Value) -> Self {
+        match Narrow::new(v) {
+            Some(n) => n,
+            None => panic!("no parameter here has a 64-bit type"),
+        }
+    }
+
+    const fn value(self) -> Value {
+        match self {
+            Narrow::U8(v) => Value::U8(v),
+            Narrow::I8(v) => Value::I8(v),
+            Narrow::U16(v) => Value::U16(v),
+            Narrow::I16(v) => Value::I16(v),
+            Narrow::U32(v) => Value::U32(v),
+            Narrow::I32(v) => Value::I32(v),
+            Narrow::F32(v) => Value::F32(v),
+        }
+    }
+}
+
+/// A parameter in [`TABLE`]: its name and default.
+#[derive(Debug, Clone, Copy)]
+pub struct Entry {
+    /// The name.
+    pub name: Name,
+    default: Narrow,
+}
+
+impl Entry {
+    /// The default, whose type is the parameter's.
+    pub const fn default(&self) -> Value {
+        self.default.value()
     }
 }
 
@@ -38,7 +101,7 @@ const fn p(text: &str, value: Value) -> Param {
 pub const STACK_USED: u16 = 33;
 
 /// Every parameter with its default, in index order.
-pub static TABLE: [Param; COUNT] = [
+pub static TABLE: [Entry; COUNT] = [
     // UINT8
     p("MAV_PROTO_VER", Value::U8(2)),
     p("BAT1_N_CELLS", Value::U8(4)),
@@ -160,16 +223,16 @@ const _: () = assert!(same_bytes(
 /// The parameters' values, in RAM; names and types are [`TABLE`]'s.
 #[derive(Debug)]
 pub struct Params {
-    values: [Value; COUNT],
+    values: [Narrow; COUNT],
 }
 
 impl Params {
     /// Every parameter at its default.
     pub const fn new() -> Self {
-        let mut values = [Value::U8(0); COUNT];
+        let mut values = [Narrow::U8(0); COUNT];
         let mut i = 0;
         while i < COUNT {
-            values[i] = TABLE[i].value;
+            values[i] = TABLE[i].default;
             i += 1;
         }
         Self { values }
@@ -177,18 +240,22 @@ impl Params {
 
     /// The value of parameter `index`, if there is one.
     pub fn value(&self, index: u16) -> Option<Value> {
-        self.values.get(usize::from(index)).copied()
+        self.values.get(usize::from(index)).map(|v| v.value())
     }
 
     /// Sets a read-only parameter, which [`Store::set`] refuses.
     pub fn update(&mut self, index: u16, value: Value) {
-        if let Some(v) = self.values.get_mut(usize::from(index)) {
-            *v = value;
+        if let (Some(v), Some(new)) = (self.values.get_mut(usize::from(index)), Narrow::new(value))
+        {
+            *v = new;
         }
     }
 }
 
 impl Store for Params {
+    // PARAM_* only, every type of 32 bits or fewer.
+    const EXTENDED: bool = false;
+
     fn count(&self) -> u16 {
         COUNT as u16
     }
@@ -208,7 +275,7 @@ impl Store for Params {
             return None;
         }
         let v = self.values.get_mut(usize::from(index))?;
-        *v = value;
+        *v = Narrow::new(value)?;
         Some(value)
     }
 }

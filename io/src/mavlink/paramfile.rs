@@ -1,7 +1,8 @@
 //! Parameter files: QGroundControl's `.params` and MAVProxy's `.parm`.
 //!
 //! - `.params`: tab (or space) separated `sysid compid name value type` lines, `type` a
-//!   MAV_PARAM_TYPE number; `#` starts a comment line.
+//!   MAV_PARAM_TYPE number (1 to 10: the 64-bit types too, which PARAM_EXT_* carry whole);
+//!   `#` starts a comment line.
 //! - `.parm`: `name value` lines (space, tab or comma between), `#` comments; the type is
 //!   REAL32 unless the caller knows better.
 //!
@@ -37,8 +38,8 @@ impl std::fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
-/// The MAV_PARAM_TYPE for a name: UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32, with or
-/// without the `MAV_PARAM_TYPE_` prefix, any case.
+/// The MAV_PARAM_TYPE for a name: UINT8, INT8, UINT16, INT16, UINT32, INT32, REAL32, UINT64,
+/// INT64 or REAL64, with or without the `MAV_PARAM_TYPE_` prefix, any case.
 pub fn param_type(name: &str) -> Option<MavParamType> {
     let upper = name.to_ascii_uppercase();
     let short = upper.strip_prefix("MAV_PARAM_TYPE_").unwrap_or(&upper);
@@ -50,6 +51,9 @@ pub fn param_type(name: &str) -> Option<MavParamType> {
         "UINT32" => MavParamType::Uint32,
         "INT32" => MavParamType::Int32,
         "REAL32" => MavParamType::Real32,
+        "UINT64" => MavParamType::Uint64,
+        "INT64" => MavParamType::Int64,
+        "REAL64" => MavParamType::Real64,
         _ => return None,
     })
 }
@@ -71,17 +75,21 @@ pub fn type_name(ty: MavParamType) -> &'static str {
     }
 }
 
-/// Parses a value written as text into type `ty`: exactly, or not at all.
+/// Parses a value written as text into type `ty`: exactly, or not at all. Integers may be
+/// written as integral floats (`3.0`, `1e3`).
 pub fn parse_value(ty: MavParamType, text: &str) -> Option<Value> {
-    if ty == MavParamType::Real32 {
-        return text.parse::<f32>().ok().map(Value::F32);
+    match ty {
+        MavParamType::Real32 => text.parse::<f32>().ok().map(Value::F32),
+        MavParamType::Real64 => text.parse::<f64>().ok().map(Value::F64),
+        _ => match text.parse::<i128>() {
+            // Integers exactly, whatever their size (an f64 holds 53 bits).
+            Ok(n) => match i64::try_from(n) {
+                Ok(i) => Value::I64(i).convert(ty),
+                Err(_) => Value::U64(u64::try_from(n).ok()?).convert(ty),
+            },
+            Err(_) => Value::F64(text.parse().ok()?).convert(ty),
+        },
     }
-    let v: i64 = text.parse().ok().or_else(|| {
-        // "4.000000" in a file for an integer parameter.
-        let f: f64 = text.parse().ok()?;
-        (f.fract() == 0.0 && f.abs() < 9.0e15).then_some(f as i64)
-    })?;
-    Value::from_f64(ty, v as f64)
 }
 
 /// Reads a parameter file; every bad line is reported, not only the first.
@@ -123,10 +131,10 @@ pub fn parse(path: &str, text: &str, qgc: bool) -> Result<Vec<Param>, Vec<Error>
                         .parse::<u8>()
                         .ok()
                         .map(MavParamType::from_raw)
-                        .filter(|t| type_name(*t) != "UNKNOWN" && !type_name(*t).ends_with("64"));
+                        .filter(|t| type_name(*t) != "UNKNOWN");
                     match ty {
                         None => Err(error(format!(
-                            "type `{}` is not one of 1 to 6 or 9 (UINT8 to INT32, REAL32)",
+                            "type `{}` is not one of 1 to 10 (UINT8 to INT64, REAL32, REAL64)",
                             fields[4]
                         ))),
                         Some(ty) => parse_value(ty, value).map(|v| (name, v)).ok_or_else(|| {
@@ -172,10 +180,7 @@ pub fn parse(path: &str, text: &str, qgc: bool) -> Result<Vec<Param>, Vec<Error>
 
 /// A value as text: integers as integers, floats as the shortest text that reads back the same.
 pub fn format_value(value: Value) -> String {
-    match value {
-        Value::F32(v) => format!("{v:?}"),
-        other => format!("{}", other.as_f64() as i64),
-    }
+    value.to_string()
 }
 
 /// QGroundControl's `.params` text for `params` of system `sysid`, component `compid`.
@@ -225,15 +230,41 @@ mod tests {
     fn every_bad_line_is_reported() {
         let errors = parse(
             "x.params",
-            "1\t1\tA\t1.5\t6\n1\t1\tB\t1\t7\nshort line\n1\t1\tOK\t1\t6\n",
+            "1\t1\tA\t1.5\t6\n1\t1\tB\t1\t11\nshort line\n1\t1\tOK\t1\t6\n1\t1\tC\t-1\t7\n",
             true,
         )
         .unwrap_err();
         let shown: Vec<String> = errors.iter().map(ToString::to_string).collect();
         insta::assert_snapshot!(shown.join("\n"), @r"
         x.params:1: `1.5` is not a value of type INT32
-        x.params:2: type `7` is not one of 1 to 6 or 9 (UINT8 to INT32, REAL32)
+        x.params:2: type `11` is not one of 1 to 10 (UINT8 to INT64, REAL32, REAL64)
         x.params:3: expected five fields: sysid, compid, name, value, type
+        x.params:5: `-1` is not a value of type UINT64
         ");
+    }
+
+    #[test]
+    fn the_64_bit_types_are_read_exactly() {
+        let params = parse(
+            "x.params",
+            "1\t1\tU\t18446744073709551615\t7\n1\t1\tI\t-9007199254740993\t8\n\
+             1\t1\tD\t0.1\t10\n1\t1\tE\t1e3\t8\n",
+            true,
+        )
+        .unwrap();
+        let values: Vec<Value> = params.iter().map(|p| p.value).collect();
+        assert_eq!(
+            values,
+            [
+                Value::U64(u64::MAX),
+                Value::I64(-9_007_199_254_740_993),
+                Value::F64(0.1),
+                Value::I64(1000)
+            ]
+        );
+        let text = write_qgc(&params, 1, 1);
+        assert_eq!(parse("y.params", &text, true).unwrap(), params);
+        assert_eq!(parse_value(MavParamType::Uint8, "256"), None);
+        assert_eq!(parse_value(MavParamType::Int8, "-1.0"), Some(Value::I8(-1)));
     }
 }

@@ -46,14 +46,17 @@ fn store() -> Vec<Param> {
     (0..20u16)
         .map(|i| Param {
             name: Name::from(format!("P{i}").as_str()),
-            value: match i % 7 {
+            value: match i % 10 {
                 0 => Value::U8(i as u8),
                 1 => Value::I8(-(i as i8)),
                 2 => Value::U16(i * 1000),
                 3 => Value::I16(-(i as i16) * 1000),
                 4 => Value::U32(u32::from(i) << 20),
                 5 => Value::I32(-(i32::from(i) << 20)),
-                _ => Value::F32(f32::from(i) / 3.0),
+                6 => Value::F32(f32::from(i) / 3.0),
+                7 => Value::U64(u64::from(i) << 50),
+                8 => Value::I64(-(i64::from(i) << 50)),
+                _ => Value::F64(f64::from(i) / 3.0),
             },
         })
         .collect()
@@ -276,7 +279,11 @@ pub fn check_servers(data: &[u8]) {
     });
     let mut command_server: command::Server<3> =
         command::Server::new(command::ServerConfig::new(OWN));
-    let mut param_client: param::Client<1> = param::Client::new(param::ClientConfig::new(GCS), OWN);
+    let mut param_config = param::ClientConfig::new(GCS);
+    if data.first().is_some_and(|b| b & 4 == 4) {
+        param_config.protocol = param::Protocol::Ext;
+    }
+    let mut param_client: param::Client<1> = param::Client::new(param_config, OWN);
     let mut command_client: command::Client<2> =
         command::Client::new(command::ClientConfig::new(GCS));
     let mut mission_server = mission::Server::new(mission::ServerConfig::new(OWN));
@@ -381,8 +388,29 @@ pub fn check_servers(data: &[u8]) {
             let Some(m) = param_server.poll_transmit(&params[..], now) else {
                 break;
             };
-            let Message::ParamValue(v) = m else {
-                panic!("the parameter server sent {m:?}")
+            let v = match m {
+                Message::ParamValue(v) => v,
+                Message::ParamExtValue(v) => {
+                    // Every value whole, bytewise.
+                    assert_eq!(v.param_count, params.count());
+                    let p = params[usize::from(v.param_index)];
+                    assert_eq!(v.param_id, p.name);
+                    let value = Value::from_ext(&v.param_value, v.param_type);
+                    assert!(
+                        value.is_some_and(|x| x.same(p.value)),
+                        "{value:?} for {p:?}"
+                    );
+                    continue;
+                }
+                Message::ParamExtAck(a) => {
+                    // Accepted or not, the value it holds when the answer goes.
+                    let i = params[..].index_of(&a.param_id).expect("a known name");
+                    let p = params[usize::from(i)];
+                    let value = Value::from_ext(&a.param_value, a.param_type);
+                    assert!(value.is_some_and(|x| x.same(p.value)), "{a:?} for {p:?}");
+                    continue;
+                }
+                m => panic!("the parameter server sent {m:?}"),
             };
             assert_eq!(v.param_count, params.count());
             if param::hash::is_hash_check(&v.param_id) {
@@ -393,9 +421,16 @@ pub fn check_servers(data: &[u8]) {
             }
             let p = params[usize::from(v.param_index)];
             assert_eq!(v.param_id, p.name);
-            let value =
-                Value::decode(v.param_value, v.param_type, encoding).expect("a 32-bit type");
-            assert!(value.same(p.value), "{value:?} sent for {p:?}");
+            assert_eq!(v.param_type, p.value.param_type());
+            match Value::decode(v.param_value, v.param_type, encoding) {
+                Some(value) => assert!(value.same(p.value), "{value:?} sent for {p:?}"),
+                // A 64-bit value: its number as the float.
+                None => assert_eq!(
+                    v.param_value.to_bits(),
+                    p.value.encode(encoding).to_bits(),
+                    "{p:?}"
+                ),
+            }
         }
         for (p, ty) in params.iter().zip(&types) {
             assert_eq!(p.value.param_type(), *ty, "a set changed {}'s type", p.name);

@@ -1,11 +1,12 @@
 //! The parameter client and server: encodings, then both sides through a lossy link.
 
 use ferrolink_runtime::mavlink::service::messages::{
-    Heartbeat, MavAutopilot, MavParamType, Message, ParamSet, ParamValue,
+    Heartbeat, MavAutopilot, MavParamExtType, MavParamType, Message, ParamAck, ParamExtAck,
+    ParamExtSet, ParamExtValue, ParamSet, ParamValue,
 };
 use ferrolink_runtime::mavlink::service::param::{
-    Client, ClientConfig, Encoding, Event, Name, Param, Received, Server, ServerConfig, Store,
-    Value,
+    Client, ClientConfig, Encoding, Event, Name, Param, Protocol, Received, Server, ServerConfig,
+    Store, Value,
 };
 use ferrolink_runtime::mavlink::service::Address;
 use proptest::prelude::*;
@@ -118,7 +119,20 @@ fn conversions_are_exact_or_refused() {
     assert_eq!(Value::from_f64(MavParamType::Uint8, 256.0), None);
     assert_eq!(Value::from_f64(MavParamType::Int8, -1.5), None);
     assert_eq!(Value::from_f64(MavParamType::Int32, f64::NAN), None);
-    assert_eq!(Value::from_f64(MavParamType::Uint64, 1.0), None);
+    assert_eq!(
+        Value::from_f64(MavParamType::Uint64, 1.0),
+        Some(Value::U64(1))
+    );
+    assert_eq!(Value::from_f64(MavParamType::Uint64, -1.0), None);
+    assert_eq!(
+        Value::I64(-(1 << 60)).convert(MavParamType::Real64),
+        Some(Value::F64(-1152921504606846976.0))
+    );
+    assert_eq!(
+        Value::F64(1e19).convert(MavParamType::Uint64),
+        Some(Value::U64(10_000_000_000_000_000_000))
+    );
+    assert_eq!(Value::F64(1e19).convert(MavParamType::Int64), None);
     assert_eq!(
         Value::I16(7).convert(MavParamType::Real32),
         Some(Value::F32(7.0))
@@ -129,15 +143,22 @@ fn name(s: &str) -> Name {
     Name::from(s)
 }
 
-/// A store of `n` parameters of every type, with values that use all their bits.
+/// A store of `n` parameters of every type PARAM_VALUE carries, with values that use all
+/// their bits.
 fn store(n: u16, seed: u64) -> Vec<Param> {
+    store_of(n, seed, 7)
+}
+
+/// A store of `n` parameters of the first `types` of U8, I8, U16, I16, U32, I32, F32, U64,
+/// I64 and F64.
+fn store_of(n: u16, seed: u64, types: u16) -> Vec<Param> {
     let mut x = seed | 1;
     (0..n)
         .map(|i| {
             x ^= x << 13;
             x ^= x >> 7;
             x ^= x << 17;
-            let value = match i % 7 {
+            let value = match i % types {
                 0 => Value::U8(x as u8),
                 1 => Value::I8(x as i8),
                 2 => Value::U16(x as u16),
@@ -145,10 +166,13 @@ fn store(n: u16, seed: u64) -> Vec<Param> {
                 4 => Value::U32(x as u32),
                 5 => Value::I32(x as i32),
                 // Any bits but NaNs, whose payloads no peer promises to keep.
-                _ => Value::F32(f32::from_bits(x as u32 & 0xbfff_ffff)),
+                6 => Value::F32(f32::from_bits(x as u32 & 0xbfff_ffff)),
+                7 => Value::U64(x),
+                8 => Value::I64(x as i64),
+                _ => Value::F64(f64::from_bits(x & 0xbfff_ffff_ffff_ffff)),
             };
             Param {
-                name: name(&format!("P{i:04}_{}", i % 7)),
+                name: name(&format!("P{i:04}_{}", i % types)),
                 value,
             }
         })
@@ -204,8 +228,13 @@ impl Node for Vehicle {
 }
 
 fn pair(n: u16, encoding: Encoding) -> (Gcs, Vehicle) {
+    pair_in(n, encoding, Protocol::V1)
+}
+
+fn pair_in(n: u16, encoding: Encoding, protocol: Protocol) -> (Gcs, Vehicle) {
     let mut config = ClientConfig::new(GCS);
     config.encoding = Some(encoding);
+    config.protocol = protocol;
     let mut server = ServerConfig::new(VEHICLE);
     server.encoding = encoding;
     server.list_interval_us = 200;
@@ -217,7 +246,10 @@ fn pair(n: u16, encoding: Encoding) -> (Gcs, Vehicle) {
         },
         Vehicle {
             server: Server::new(server),
-            params: store(n, 7),
+            params: match protocol {
+                Protocol::V1 => store(n, 7),
+                Protocol::Ext => store_of(n, 7, 10),
+            },
             requests: 0,
         },
     )
@@ -348,6 +380,7 @@ fn get_and_set_round_trip_every_type() {
                 Value::U32(_) => Value::U32(16_000_000),
                 Value::I32(_) => Value::I32(-16_000_000),
                 Value::F32(_) => Value::F32(-0.125),
+                other => unreachable!("{other:?}: not in a V1 store"),
             };
             gcs.client.set(p.name, new).unwrap();
             sim.run(&mut gcs, &mut vehicle, sim.now_us + 10_000_000, |g, _| {
@@ -452,4 +485,220 @@ proptest! {
         let (mut gcs, mut vehicle) = pair(n, Encoding::Bytewise);
         list(seed, Faults::BAD_RADIO, &mut gcs, &mut vehicle);
     }
+
+    /// The same through PARAM_EXT_*, with the 64-bit types among the values.
+    #[test]
+    fn a_bad_radio_loses_no_extended_parameter(seed in any::<u64>(), n in 1u16..400) {
+        let (mut gcs, mut vehicle) = pair_in(n, Encoding::Bytewise, Protocol::Ext);
+        list(seed, Faults::BAD_RADIO, &mut gcs, &mut vehicle);
+    }
+}
+
+#[test]
+fn an_extended_list_carries_64_bit_values_whole() {
+    let (mut gcs, mut vehicle) = pair_in(50, Encoding::CCast, Protocol::Ext);
+    list(11, Faults::CLEAN, &mut gcs, &mut vehicle);
+    assert_eq!(gcs.got.len(), 50, "each value once");
+    // A V1 client of the same vehicle lists every index, the 64-bit ones without a value.
+    let (mut v1, _) = pair(0, Encoding::Bytewise);
+    let mut sim = Sim::new(12, Faults::CLEAN);
+    v1.client.list().unwrap();
+    sim.run(&mut v1, &mut vehicle, 600_000_000, |g, _| {
+        !g.events.is_empty()
+    });
+    assert_eq!(
+        v1.events,
+        [Event::Listed {
+            count: 50,
+            missing: 0
+        }]
+    );
+    for r in &v1.got {
+        let wide = vehicle.params[usize::from(r.index)]
+            .value
+            .param_type()
+            .raw()
+            >= 7
+            && vehicle.params[usize::from(r.index)].value.param_type() != MavParamType::Real32;
+        assert_eq!(r.value.is_none(), wide, "{r:?}");
+    }
+}
+
+/// Runs `gcs` against `vehicle` until the client's operation ends, and returns its event.
+fn run_op(sim: &mut Sim, gcs: &mut Gcs, vehicle: &mut Vehicle) -> Event {
+    sim.run(gcs, vehicle, sim.now_us + 30_000_000, |g, _| {
+        !g.events.is_empty()
+    });
+    gcs.events.pop().expect("the operation never ended")
+}
+
+#[test]
+fn extended_get_and_set_round_trip_every_type() {
+    let (mut gcs, mut vehicle) = pair_in(10, Encoding::Bytewise, Protocol::Ext);
+    let mut sim = Sim::new(5, Faults::BAD_RADIO);
+    for i in 0..10u16 {
+        let p = vehicle.params[usize::from(i)];
+        let new = match p.value {
+            Value::U8(_) => Value::U8(254),
+            Value::I8(_) => Value::I8(-128),
+            Value::U16(_) => Value::U16(65_000),
+            Value::I16(_) => Value::I16(-30_000),
+            Value::U32(_) => Value::U32(u32::MAX),
+            Value::I32(_) => Value::I32(-16_000_001),
+            Value::U64(_) => Value::U64(u64::MAX - 2),
+            Value::I64(_) => Value::I64(i64::MIN + 1),
+            Value::F32(_) => Value::F32(-0.1),
+            Value::F64(_) => Value::F64(-0.1),
+        };
+        gcs.client.set(p.name, new).unwrap();
+        let Event::Set(Some(r)) = run_op(&mut sim, &mut gcs, &mut vehicle) else {
+            panic!("{p:?}")
+        };
+        assert!(r.value.unwrap().same(new), "{r:?}");
+        assert!(vehicle.params[usize::from(i)].value.same(new));
+        gcs.client.read(p.name).unwrap();
+        let Event::Read(Some(r)) = run_op(&mut sim, &mut gcs, &mut vehicle) else {
+            panic!()
+        };
+        assert_eq!(r.index, i);
+        assert!(r.value.unwrap().same(new), "{r:?}");
+        gcs.client.read_index(i).unwrap();
+        let Event::Read(Some(r)) = run_op(&mut sim, &mut gcs, &mut vehicle) else {
+            panic!()
+        };
+        assert_eq!(r.name, p.name);
+    }
+    // A value the parameter's type cannot hold: refused, and the client says so.
+    let p = vehicle.params[0];
+    gcs.client.set(p.name, Value::F64(0.5)).unwrap();
+    let Event::Set(Some(r)) = run_op(&mut sim, &mut gcs, &mut vehicle) else {
+        panic!()
+    };
+    assert_eq!(r.value, None);
+    assert!(vehicle.params[0].value.same(Value::U8(254)));
+}
+
+#[test]
+fn extended_sets_are_acknowledged_with_the_result() {
+    let mut params = store_of(10, 3, 10);
+    let mut server: Server<4> = Server::new(ServerConfig::new(VEHICLE));
+    let set = |name: Name, value: Value| {
+        Message::ParamExtSet(ParamExtSet {
+            target_system: 1,
+            target_component: 0,
+            param_id: name,
+            param_value: value.to_ext(),
+            param_type: value.ext_type(),
+        })
+    };
+    let ack = |server: &mut Server<4>, params: &[Param]| match server.poll_transmit(params, 0) {
+        Some(Message::ParamExtAck(a)) => a,
+        other => panic!("{other:?}"),
+    };
+    // The exact number in another type: converted and accepted.
+    let m = set(params[7].name, Value::F64(4e18));
+    server.handle(&mut params[..], 0, GCS, &m);
+    let a = ack(&mut server, &params);
+    assert_eq!(a.param_result, ParamAck::Accepted);
+    assert_eq!(a.param_type, MavParamExtType::Uint64);
+    assert_eq!(
+        Value::from_ext(&a.param_value, a.param_type),
+        Some(Value::U64(4_000_000_000_000_000_000))
+    );
+    // Out of range: VALUE_UNSUPPORTED, with the value held.
+    let before = params[0].value;
+    let m = set(params[0].name, Value::I32(256));
+    server.handle(&mut params[..], 0, GCS, &m);
+    let ParamExtAck {
+        param_result,
+        param_value,
+        param_type,
+        ..
+    } = ack(&mut server, &params);
+    assert_eq!(param_result, ParamAck::ValueUnsupported);
+    assert!(Value::from_ext(&param_value, param_type)
+        .unwrap()
+        .same(before));
+    // A store that refuses: FAILED.
+    struct ReadOnly(Vec<Param>);
+    impl Store for ReadOnly {
+        fn count(&self) -> u16 {
+            self.0[..].count()
+        }
+        fn get(&self, index: u16) -> Option<Param> {
+            self.0[..].get(usize::from(index)).copied()
+        }
+        fn index_of(&self, name: &Name) -> Option<u16> {
+            self.0[..].index_of(name)
+        }
+        fn set(&mut self, _: u16, _: Value) -> Option<Value> {
+            None
+        }
+    }
+    let mut ro = ReadOnly(params.clone());
+    server.handle(&mut ro, 0, GCS, &set(params[1].name, Value::I8(1)));
+    let Some(Message::ParamExtAck(a)) = server.poll_transmit(&ro, 0) else {
+        panic!()
+    };
+    assert_eq!(a.param_result, ParamAck::Failed);
+    // CUSTOM: unsupported; an unknown name: no answer.
+    let mut custom = set(params[2].name, Value::U8(0));
+    if let Message::ParamExtSet(m) = &mut custom {
+        m.param_type = MavParamExtType::Custom;
+    }
+    server.handle(&mut params[..], 0, GCS, &custom);
+    assert_eq!(
+        ack(&mut server, &params).param_result,
+        ParamAck::ValueUnsupported
+    );
+    server.handle(&mut params[..], 0, GCS, &set(name("NOPE"), Value::U8(0)));
+    assert!(server.poll_transmit(&params[..], 0).is_none());
+}
+
+#[test]
+fn in_progress_keeps_an_extended_set_waiting() {
+    let mut config = ClientConfig::new(GCS);
+    config.protocol = Protocol::Ext;
+    let mut c: Client<1> = Client::new(config, VEHICLE);
+    let p = name("CAM_EV");
+    c.set(p, Value::F32(1.5)).unwrap();
+    assert!(matches!(c.poll_transmit(0), Some(Message::ParamExtSet(_))));
+    let ack = |result: ParamAck, value: Value| {
+        Message::ParamExtAck(ParamExtAck {
+            param_id: p,
+            param_value: value.to_ext(),
+            param_type: value.ext_type(),
+            param_result: result,
+        })
+    };
+    // A PARAM_EXT_VALUE does not answer a set, nor does a V1 answer.
+    let value = Message::ParamExtValue(ParamExtValue {
+        param_id: p,
+        param_value: Value::F32(0.0).to_ext(),
+        param_type: MavParamExtType::Real32,
+        param_count: 1,
+        param_index: 0,
+    });
+    c.handle(10_000, VEHICLE, &value);
+    c.handle(10_000, VEHICLE, &Message::ParamValue(ParamValue::default()));
+    assert_eq!(c.poll_event(), None);
+    // IN_PROGRESS: no resending before the longest wait (1 s) has passed since.
+    c.handle(20_000, VEHICLE, &ack(ParamAck::InProgress, Value::F32(0.0)));
+    assert_eq!(c.poll_timeout(), Some(1_020_000));
+    assert!(c.poll_transmit(1_000_000).is_none());
+    c.handle(
+        1_500_000,
+        VEHICLE,
+        &ack(ParamAck::InProgress, Value::F32(0.0)),
+    );
+    assert!(c.poll_transmit(2_000_000).is_none());
+    c.handle(
+        2_100_000,
+        VEHICLE,
+        &ack(ParamAck::Accepted, Value::F32(1.5)),
+    );
+    let Some(Event::Set(Some(r))) = c.poll_event() else {
+        panic!()
+    };
+    assert!(r.value.unwrap().same(Value::F32(1.5)));
 }

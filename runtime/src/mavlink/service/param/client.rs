@@ -1,10 +1,11 @@
 //! The parameter client: lists, reads and sets.
 
 use super::super::messages::{
-    Heartbeat, MavAutopilot, Message, ParamRequestList, ParamRequestRead, ParamSet,
+    Heartbeat, MavAutopilot, Message, ParamAck, ParamExtRequestList, ParamExtRequestRead,
+    ParamExtSet, ParamRequestList, ParamRequestRead, ParamSet,
 };
 use super::super::{Address, Busy, Retry, Rtt};
-use super::{Encoding, Name, Received, Value};
+use super::{Encoding, Name, Protocol, Received, Value};
 
 /// What a client's operation came to.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,9 +29,11 @@ pub enum Event {
     /// The answer to a read, `None` after the retries.
     Read(Option<Received>),
     /// What the target reports after a set, `None` after the retries. The set took only if
-    /// the reported value is exactly the one sent ([`Value::same`]). An answer with another
-    /// value is asked for again once (it may be a list stream's, sent before the set arrived),
-    /// and the second answer is final.
+    /// the reported value is exactly the one sent ([`Value::same`]). In [`Protocol::V1`], an
+    /// answer with another value is asked for again once (it may be a list stream's, sent
+    /// before the set arrived), and the second answer is final. In [`Protocol::Ext`] the
+    /// PARAM_EXT_ACK is final: ACCEPTED gives the value it holds, any other result none;
+    /// IN_PROGRESS keeps the client waiting, as long as the longest wait each time.
     Set(Option<Received>),
 }
 
@@ -49,6 +52,9 @@ pub struct ClientConfig {
     pub window: u16,
     /// The target's encoding; `None`: from its HEARTBEAT (bytewise until one arrives).
     pub encoding: Option<Encoding>,
+    /// The messages spoken: PARAM_* ([`Protocol::V1`], the default) or PARAM_EXT_*. A client
+    /// takes only its own protocol's answers. `_HASH_CHECK` is V1's.
+    pub protocol: Protocol,
 }
 
 impl ClientConfig {
@@ -62,6 +68,7 @@ impl ClientConfig {
             },
             window: 16,
             encoding: None,
+            protocol: Protocol::V1,
         }
     }
 }
@@ -214,7 +221,7 @@ impl<const W: usize> Client<W> {
     /// Fetches every parameter unless the target's `_HASH_CHECK` (PX4's, see
     /// [`super::hash`]) is `hash`, the hash of the caller's cached copy: then the target is told
     /// to stop its list and [`Event::Unchanged`] ends the operation. A target without
-    /// `_HASH_CHECK` lists as for [`Client::list`].
+    /// `_HASH_CHECK`, and a client speaking [`Protocol::Ext`], lists as for [`Client::list`].
     pub fn list_unless(&mut self, hash: u32) -> Result<(), Busy> {
         self.list()?;
         self.cached = Some(hash);
@@ -271,35 +278,61 @@ impl<const W: usize> Client<W> {
         if !from_target {
             return None;
         }
-        let v = match msg {
+        let ext = self.config.protocol == Protocol::Ext;
+        let received = match msg {
             Message::Heartbeat(Heartbeat { autopilot, .. }) => {
                 if self.config.encoding.is_none() && *autopilot != MavAutopilot::Invalid {
                     self.encoding = Encoding::for_autopilot(*autopilot);
                 }
                 return None;
             }
-            Message::ParamValue(v) => v,
-            _ => return None,
-        };
-        if super::hash::is_hash_check(&v.param_id) {
-            let hash = v.param_value.to_bits();
-            if let Op::List { .. } = self.op {
-                self.announced = Some(hash);
-                if self.cached == Some(hash) {
-                    self.stop_due = Some(hash);
-                    self.finish(Event::Unchanged {
-                        count: v.param_count,
-                        hash,
-                    });
+            Message::ParamValue(v) if !ext => {
+                if super::hash::is_hash_check(&v.param_id) {
+                    self.hash_announced(v.param_value.to_bits(), v.param_count);
+                    return None;
+                }
+                Received {
+                    name: v.param_id,
+                    index: v.param_index,
+                    count: v.param_count,
+                    value: Value::decode(v.param_value, v.param_type, self.encoding),
                 }
             }
-            return None;
-        }
-        let received = Received {
-            name: v.param_id,
-            index: v.param_index,
-            count: v.param_count,
-            value: Value::decode(v.param_value, v.param_type, self.encoding),
+            Message::ParamExtValue(v) if ext => Received {
+                name: v.param_id,
+                index: v.param_index,
+                count: v.param_count,
+                value: Value::from_ext(&v.param_value, v.param_type),
+            },
+            Message::ParamExtAck(a) if ext => {
+                let Op::Set { name, .. } = self.op else {
+                    return None;
+                };
+                if a.param_id != name {
+                    return None;
+                }
+                if let Some(sent) = self.sent_us.take() {
+                    self.rtt.sample(now_us.saturating_sub(sent));
+                }
+                let received = Received {
+                    name: a.param_id,
+                    index: u16::MAX,
+                    count: 0,
+                    value: (a.param_result == ParamAck::Accepted)
+                        .then(|| Value::from_ext(&a.param_value, a.param_type))
+                        .flatten(),
+                };
+                if a.param_result == ParamAck::InProgress {
+                    // Alive and working on it: wait as long as the longest wait, from now.
+                    self.silent_since = Some(now_us);
+                    self.tries = 0;
+                    self.deadline = Some(now_us.saturating_add(self.config.retry.timeout_us));
+                } else {
+                    self.finish(Event::Set(Some(received)));
+                }
+                return Some(received);
+            }
+            _ => return None,
         };
         if let Some(sent) = self.sent_us.take() {
             self.rtt.sample(now_us.saturating_sub(sent));
@@ -359,7 +392,8 @@ impl<const W: usize> Client<W> {
                 }
             }
             Op::Set { name, value } => {
-                if received.name == name {
+                // PARAM_EXT_SET is answered by PARAM_EXT_ACK alone.
+                if received.name == name && !ext {
                     let took = received.value.is_some_and(|v| v.same(value));
                     if took || self.set_mismatch.is_some() {
                         self.finish(Event::Set(Some(received)));
@@ -373,6 +407,17 @@ impl<const W: usize> Client<W> {
             }
         }
         Some(received)
+    }
+
+    /// A `_HASH_CHECK` of a list: ends the list if it is the cached copy's.
+    fn hash_announced(&mut self, hash: u32, count: u16) {
+        if let Op::List { .. } = self.op {
+            self.announced = Some(hash);
+            if self.cached == Some(hash) {
+                self.stop_due = Some(hash);
+                self.finish(Event::Unchanged { count, hash });
+            }
+        }
     }
 
     fn finish(&mut self, event: Event) {
@@ -414,14 +459,23 @@ impl<const W: usize> Client<W> {
                 self.finish(Event::Set(self.set_mismatch));
                 return None;
             }
-            Op::Read { name, index } => read_message(target, &name, index),
-            Op::Set { name, value } => Message::ParamSet(ParamSet {
-                target_system: target.system,
-                target_component: target.component,
-                param_id: name,
-                param_value: value.encode(self.encoding),
-                param_type: value.param_type(),
-            }),
+            Op::Read { name, index } => self.read_message(&name, index),
+            Op::Set { name, value } => match self.config.protocol {
+                Protocol::V1 => Message::ParamSet(ParamSet {
+                    target_system: target.system,
+                    target_component: target.component,
+                    param_id: name,
+                    param_value: value.encode(self.encoding),
+                    param_type: value.param_type(),
+                }),
+                Protocol::Ext => Message::ParamExtSet(ParamExtSet {
+                    target_system: target.system,
+                    target_component: target.component,
+                    param_id: name,
+                    param_value: value.to_ext(),
+                    param_type: value.ext_type(),
+                }),
+            },
         };
         self.sent_us = self.rtt.time_sending(now_us, self.tries == 0);
         self.tries = self.tries.saturating_add(1);
@@ -481,10 +535,17 @@ impl<const W: usize> Client<W> {
                 .then(|| self.rtt.time_sending(now_us, self.tries == 0))
                 .flatten();
             self.deadline = Some(now_us.saturating_add(timeout_us));
-            msg = Some(Message::ParamRequestList(ParamRequestList {
-                target_system: self.target.system,
-                target_component: self.target.component,
-            }));
+            let (target_system, target_component) = (self.target.system, self.target.component);
+            msg = Some(match self.config.protocol {
+                Protocol::V1 => Message::ParamRequestList(ParamRequestList {
+                    target_system,
+                    target_component,
+                }),
+                Protocol::Ext => Message::ParamExtRequestList(ParamExtRequestList {
+                    target_system,
+                    target_component,
+                }),
+            });
         } else if let (Some(c), true) = (count, filling && in_flight < self.config.window) {
             let limit = c.min(u16::try_from(32 * W).unwrap_or(u16::MAX));
             let mut i = cursor;
@@ -498,11 +559,7 @@ impl<const W: usize> Client<W> {
                 if let Some(slot) = self.reads.iter_mut().find(|r| r.is_none()) {
                     *slot = Some((i, now_us));
                 }
-                msg = Some(read_message(
-                    self.target,
-                    &Name::default(),
-                    i16::try_from(i).unwrap_or(-1),
-                ));
+                msg = Some(self.read_message(&Name::default(), i16::try_from(i).unwrap_or(-1)));
             } else {
                 cursor = limit;
             }
@@ -515,6 +572,25 @@ impl<const W: usize> Client<W> {
             request_due,
         };
         msg
+    }
+
+    /// A read of `index`, or of `name` if `index` is negative.
+    fn read_message(&self, name: &Name, index: i16) -> Message {
+        let (target_system, target_component) = (self.target.system, self.target.component);
+        match self.config.protocol {
+            Protocol::V1 => Message::ParamRequestRead(ParamRequestRead {
+                target_system,
+                target_component,
+                param_id: *name,
+                param_index: index,
+            }),
+            Protocol::Ext => Message::ParamExtRequestRead(ParamExtRequestRead {
+                target_system,
+                target_component,
+                param_id: *name,
+                param_index: index,
+            }),
+        }
     }
 
     /// When [`Client::poll_transmit`] has something to do next, if nothing arrives first.
@@ -542,13 +618,4 @@ impl<const W: usize> Client<W> {
     pub fn poll_event(&mut self) -> Option<Event> {
         self.event.take()
     }
-}
-
-fn read_message(target: Address, name: &Name, index: i16) -> Message {
-    Message::ParamRequestRead(ParamRequestRead {
-        target_system: target.system,
-        target_component: target.component,
-        param_id: *name,
-        param_index: index,
-    })
 }

@@ -32,11 +32,16 @@ impl Hasher {
 
     /// Adds the next parameter.
     pub fn add(&mut self, p: &Param) {
-        let value = p.value.encode(Encoding::Bytewise).to_bits().to_le_bytes();
+        self.add_value(&p.name, p.value.encode(Encoding::Bytewise));
+    }
+
+    /// Adds a parameter called `name` whose PARAM_VALUE float, bytewise, is `value`.
+    fn add_value(&mut self, name: &Name, value: f32) {
+        let value = value.to_bits().to_le_bytes();
         // The crate takes an initial value as written, and reflects it for this algorithm:
         // reflected once more, the running value goes on where it stopped.
         let mut digest = crate::crc::FTP_CRC32.digest_with_initial(self.crc.reverse_bits());
-        digest.update(p.name.text_bytes());
+        digest.update(name.text_bytes());
         digest.update(&value);
         self.crc = digest.finalize();
     }
@@ -52,7 +57,16 @@ pub fn hash<S: Store + ?Sized>(store: &S) -> u32 {
     let mut h = Hasher::new();
     for i in 0..store.count() {
         if let Some(p) = store.get(i) {
-            h.add(&p);
+            match S::EXTENDED {
+                true => h.add(&p),
+                // A store of 32-bit values only: their code alone.
+                false => h.add_value(
+                    &p.name,
+                    p.value
+                        .encode_narrow(Encoding::Bytewise)
+                        .unwrap_or_default(),
+                ),
+            }
         }
     }
     h.value()
