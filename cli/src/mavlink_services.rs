@@ -14,7 +14,8 @@ use ferrolink_io::mavlink::{missionfile, paramfile};
 use ferrolink_io::mavlink::{vehicle, Connection};
 use ferrolink_runtime::mavlink::service::command::Command as MavCommand;
 use ferrolink_runtime::mavlink::service::messages::{
-    MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavMissionType, MavResult, MavType,
+    MavAutopilot, MavCmd, MavFrame, MavMissionResult, MavMissionType, MavParamType, MavResult,
+    MavType,
 };
 use ferrolink_runtime::mavlink::service::param::{self, Protocol, Received, Value};
 use ferrolink_runtime::mavlink::service::Address;
@@ -84,8 +85,8 @@ pub enum ParamCommand {
         /// The value.
         #[arg(allow_negative_numbers = true)]
         value: String,
-        /// UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32, and with --ext UINT64, INT64
-        /// or REAL64 [default: the parameter's type, read first].
+        /// UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32, and with --ext UINT64, INT64,
+        /// REAL64 or CUSTOM (VALUE's bytes) [default: the parameter's type, read first].
         #[arg(long = "type", value_name = "TYPE")]
         ty: Option<String>,
         #[command(flatten)]
@@ -233,16 +234,22 @@ pub(crate) fn find_target(link: &mut Connection, uri: &str, target: TargetArg) -
 /// A received value as the contract's JSON line: `{"name": "...", "value": V, "type": "INT32",
 /// "index": I}`, integers as JSON integers.
 fn value_line(r: &Received) -> String {
-    let value = match r.value {
+    let value = match (r.value, r.custom) {
         // Integers whole; floats as the shortest text that reads back as the same value.
-        Some(Value::F32(v)) if !v.is_finite() => "null".into(),
-        Some(Value::F64(v)) if !v.is_finite() => "null".into(),
-        Some(v) => v.to_string(),
-        None => "null".into(),
+        (Some(Value::F32(v)), _) if !v.is_finite() => "null".into(),
+        (Some(Value::F64(v)), _) if !v.is_finite() => "null".into(),
+        (Some(v), _) => v.to_string(),
+        // A CUSTOM value: its text, up to the first NUL.
+        (None, Some(bytes)) => {
+            serde_json::json!(String::from_utf8_lossy(bytes.text_bytes())).to_string()
+        }
+        (None, None) => "null".into(),
     };
-    let ty = r
-        .value
-        .map_or("UNKNOWN", |v| paramfile::type_name(v.param_type()));
+    let ty = match (r.value, r.custom) {
+        (Some(v), _) => paramfile::type_name(v.param_type()),
+        (None, Some(_)) => "CUSTOM",
+        (None, None) => "UNKNOWN",
+    };
     format!(
         "{{\"name\": {}, \"value\": {value}, \"type\": \"{ty}\", \"index\": {}}}",
         serde_json::json!(r.name.as_str()),
@@ -328,23 +335,7 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
             ext,
         } => {
             check_name(&name)?;
-            let ty = ty
-                .map(|t| {
-                    paramfile::param_type(&t)
-                        .filter(|t| ext || !param::is_wide(*t))
-                        .ok_or_else(|| {
-                            format!(
-                                "--type {t}: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or \
-                                 REAL32{}",
-                                if ext {
-                                    ", UINT64, INT64 or REAL64"
-                                } else {
-                                    " (and with --ext UINT64, INT64 or REAL64)"
-                                }
-                            )
-                        })
-                })
-                .transpose()?;
+            let ty = ty.map(|t| parse_type(&t, ext)).transpose()?;
             let mut link = open(&uri)?;
             let peer = find_target(&mut link, &uri, target)?;
             let mut remote = param_remote(&mut link, peer, ext);
@@ -352,41 +343,97 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
             let read = match (ty, ext) {
                 (Some(_), false) => None,
                 _ => match remote.read_param(&name)? {
-                    Some(r @ Received { value: Some(_), .. }) => Some(r),
+                    Some(r) if r.value.is_some() || r.custom.is_some() => Some(r),
                     _ => return Err(unknown(&name, peer)),
                 },
             };
-            let ty = ty
-                .or(read.and_then(|r| r.value).map(|v| v.param_type()))
-                .ok_or_else(|| unknown(&name, peer))?;
-            let value = paramfile::parse_value(ty, &value).ok_or_else(|| {
-                format!(
-                    "`{value}` is not a value of type {}",
-                    paramfile::type_name(ty)
-                )
-            })?;
-            match remote.set_param(&name, value)? {
-                Some(mut r) => {
-                    if let (u16::MAX, Some(read)) = (r.index, read) {
-                        r.index = read.index;
-                    }
-                    println!("{}", value_line(&r));
-                    match r.value {
-                        Some(v) if v.same(value) => Ok(ExitCode::SUCCESS),
-                        Some(_) => {
-                            eprintln!("the vehicle holds another value than the one set");
-                            Ok(ExitCode::FAILURE)
-                        }
-                        None => {
-                            eprintln!("the vehicle refused the value");
-                            Ok(ExitCode::FAILURE)
-                        }
-                    }
+            let ty = match ty {
+                Some(ty) => ty,
+                None => match read.and_then(|r| r.value) {
+                    Some(v) => SetType::Value(v.param_type()),
+                    None => SetType::Custom,
+                },
+            };
+            let (answer, sent) = match ty {
+                SetType::Value(ty) => {
+                    let v = paramfile::parse_value(ty, &value).ok_or_else(|| {
+                        format!(
+                            "`{value}` is not a value of type {}",
+                            paramfile::type_name(ty)
+                        )
+                    })?;
+                    (remote.set_param(&name, v)?, Sent::Value(v))
                 }
-                None => Err(unknown(&name, peer)),
+                SetType::Custom => {
+                    if value.len() > 128 {
+                        return Err(format!(
+                            "a CUSTOM value has at most 128 bytes, not {}",
+                            value.len()
+                        )
+                        .into());
+                    }
+                    let bytes = value.as_bytes();
+                    let sent = Sent::Custom(param::Bytes::from_bytes(bytes));
+                    (remote.set_param_custom(&name, bytes)?, sent)
+                }
+            };
+            let Some(mut r) = answer else {
+                return Err(unknown(&name, peer));
+            };
+            if let (u16::MAX, Some(read)) = (r.index, read) {
+                r.index = read.index;
+            }
+            println!("{}", value_line(&r));
+            let took = match sent {
+                Sent::Value(v) => r.value.map(|held| held.same(v)),
+                Sent::Custom(bytes) => r.custom.map(|held| held == bytes),
+            };
+            match took {
+                Some(true) => Ok(ExitCode::SUCCESS),
+                Some(false) => {
+                    eprintln!("the vehicle holds another value than the one set");
+                    Ok(ExitCode::FAILURE)
+                }
+                None => {
+                    eprintln!("the vehicle refused the value");
+                    Ok(ExitCode::FAILURE)
+                }
             }
         }
     }
+}
+
+/// What `param set` sets: a value of a type, or (PARAM_EXT only) CUSTOM bytes.
+#[derive(Clone, Copy)]
+enum SetType {
+    Value(MavParamType),
+    Custom,
+}
+
+/// What `param set` sent, to compare with the answer.
+enum Sent {
+    Value(Value),
+    Custom(param::Bytes),
+}
+
+/// `--type TYPE`: the types of PARAM_VALUE, and with `ext` the 64-bit ones and CUSTOM.
+fn parse_type(t: &str, ext: bool) -> Result<SetType> {
+    let upper = t.to_ascii_uppercase();
+    if ext && upper.strip_prefix("MAV_PARAM_EXT_TYPE_").unwrap_or(&upper) == "CUSTOM" {
+        return Ok(SetType::Custom);
+    }
+    paramfile::param_type(t)
+        .filter(|t| ext || !param::is_wide(*t))
+        .map(SetType::Value)
+        .ok_or_else(|| {
+            let more = if ext {
+                ", UINT64, INT64, REAL64 or CUSTOM"
+            } else {
+                " (and with --ext UINT64, INT64, REAL64 or CUSTOM)"
+            };
+            format!("--type {t}: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32{more}")
+                .into()
+        })
 }
 
 /// A client of `peer`'s parameters, speaking PARAM_EXT_* when `ext`.

@@ -53,8 +53,8 @@ fn a_bad_target_and_a_bad_type() {
         err.contains("write the target as SYS/COMP, e.g. 1/1"),
         "{err}"
     );
-    insta::assert_snapshot!(refused(&["param", "set", "udpin://127.0.0.1:0", "X", "1", "--type", "INT64"], 1), @"--type INT64: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32 (and with --ext UINT64, INT64 or REAL64)");
-    insta::assert_snapshot!(refused(&["param", "set", "udpin://127.0.0.1:0", "X", "1", "--type", "INT128", "--ext"], 1), @"--type INT128: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32, UINT64, INT64 or REAL64");
+    insta::assert_snapshot!(refused(&["param", "set", "udpin://127.0.0.1:0", "X", "1", "--type", "INT64"], 1), @"--type INT64: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32 (and with --ext UINT64, INT64, REAL64 or CUSTOM)");
+    insta::assert_snapshot!(refused(&["param", "set", "udpin://127.0.0.1:0", "X", "1", "--type", "INT128", "--ext"], 1), @"--type INT128: use UINT8, INT8, UINT16, INT16, UINT32, INT32 or REAL32, UINT64, INT64, REAL64 or CUSTOM");
 }
 
 #[test]

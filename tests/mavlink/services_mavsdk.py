@@ -16,8 +16,9 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
                      value whole, and plain ``param list`` lists them without a value.
   our_param_ext      ``ferrolink mavlink param list|get|set --ext`` against MAVSDK's
                      ParamServer speaking PARAM_EXT_* (set_protocol(True)), with a CUSTOM
-                     parameter among the rest: every value listed bit-exact (CUSTOM without
-                     one), an int and a float set, and MAVSDK's server reports the change.
+                     parameter among the rest: every value listed bit-exact (CUSTOM as its
+                     text), an int, a float and the CUSTOM text set, and MAVSDK's server
+                     reports each change.
   mavsdk_action      MAVSDK's Action plugin arms our vehicle, takes off and disarms.
   our_params         ``ferrolink mavlink param list|get|set`` against a vehicle built from
                      MAVSDK's ParamServer plugin: every value listed bit-exact, an int and a
@@ -458,8 +459,16 @@ async def check_our_param_ext(args):
             raise CheckFailed("param list --ext exited %d: %s" % (rc, err))
         n = check_list_output(out, "param list --ext")
         custom = [json.loads(l) for l in out.splitlines() if "CUSTOM_PARAM" in l]
-        if len(custom) != 1 or custom[0]["value"] is not None:
+        if len(custom) != 1 or custom[0]["value"] != "a camera's own text" \
+                or custom[0]["type"] != "CUSTOM":
             raise CheckFailed("CUSTOM_PARAM listed as %r" % custom)
+        rc, out, err = await ferrolink(args, "param", "set", uri, "CUSTOM_PARAM", "ISO 400",
+                                       "--ext")
+        if rc != 0 or json.loads(out)["value"] != "ISO 400":
+            raise CheckFailed("param set --ext CUSTOM: %d %r %r" % (rc, out, err))
+        held = await server.retrieve_param_custom("CUSTOM_PARAM")
+        if held not in ("ISO 400", b"ISO 400"):
+            raise CheckFailed("MAVSDK's ParamServer holds CUSTOM_PARAM %r after our set" % held)
         rc, out, err = await ferrolink(args, "param", "set", uri, "I32_PARAM", "-77", "--ext")
         if rc != 0 or json.loads(out)["value"] != -77:
             raise CheckFailed("param set --ext int: %d %r %r" % (rc, out, err))
@@ -474,7 +483,7 @@ async def check_our_param_ext(args):
             raise CheckFailed("MAVSDK's ParamServer saw %s" % events)
     finally:
         await close_vehicle(mavsdk, tasks)
-    return "%d listed bit-exact over PARAM_EXT (CUSTOM without a value), int and float set" % n
+    return "%d listed bit-exact over PARAM_EXT, CUSTOM text among them; int, float and CUSTOM set" % n
 
 
 async def check_mavsdk_action(args):

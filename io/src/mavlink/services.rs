@@ -250,7 +250,12 @@ impl<'c> Remote<'c> {
     }
 
     fn param_client(&self) -> param::Client<2048> {
+        self.param_client_in(self.param_config.protocol)
+    }
+
+    fn param_client_in(&self, protocol: param::Protocol) -> param::Client<2048> {
         let mut config = self.param_config;
+        config.protocol = protocol;
         config.encoding = self
             .encoding
             .or(Some(Encoding::for_autopilot(self.target.autopilot)));
@@ -347,7 +352,20 @@ impl<'c> Remote<'c> {
     pub fn set_param(&mut self, name: &str, value: Value) -> io::Result<Option<Received>> {
         let mut client = self.param_client();
         let _ = client.set(Name::from(name), value);
-        match self.run_param(&mut client, None, |_| {})? {
+        self.run_set(&mut client)
+    }
+
+    /// Sets the PARAM_EXT CUSTOM parameter called `name` to `bytes` (at most 128, NUL-padded),
+    /// in PARAM_EXT_* whatever `param_config.protocol` says; what the target acknowledged is in
+    /// [`Received::custom`] (`None` in it: refused). `None` if nothing answered.
+    pub fn set_param_custom(&mut self, name: &str, bytes: &[u8]) -> io::Result<Option<Received>> {
+        let mut client = self.param_client_in(param::Protocol::Ext);
+        let _ = client.set_custom(Name::from(name), param::Bytes::from_bytes(bytes));
+        self.run_set(&mut client)
+    }
+
+    fn run_set(&mut self, client: &mut param::Client<2048>) -> io::Result<Option<Received>> {
+        match self.run_param(client, None, |_| {})? {
             Some(param::Event::Set(r)) => Ok(r),
             _ => Ok(None),
         }

@@ -358,6 +358,9 @@ pub fn check_servers(data: &[u8]) {
                     0 => drop(param_client.list()),
                     1 => drop(param_client.read(name)),
                     2 => drop(param_client.read_index(u16::from(which))),
+                    3 if which & 0x80 != 0 => {
+                        let _ = param_client.set_custom(name, param::Bytes::from_bytes(&[which]));
+                    }
                     3 => drop(param_client.set(name, Value::F32(f32::from(which)))),
                     4 => drop(mission_client.upload(MavMissionType::Mission, 7)),
                     5 => drop(mission_client.download(MavMissionType::Fence)),

@@ -5,8 +5,8 @@ use ferrolink_runtime::mavlink::service::messages::{
     ParamExtSet, ParamExtValue, ParamSet, ParamValue,
 };
 use ferrolink_runtime::mavlink::service::param::{
-    Client, ClientConfig, Encoding, Event, Name, Param, Protocol, Received, Server, ServerConfig,
-    Store, Value,
+    Bytes, Client, ClientConfig, Encoding, Event, Name, Param, Protocol, Received, Server,
+    ServerConfig, Store, Value,
 };
 use ferrolink_runtime::mavlink::service::Address;
 use proptest::prelude::*;
@@ -701,4 +701,46 @@ fn in_progress_keeps_an_extended_set_waiting() {
         panic!()
     };
     assert!(r.value.unwrap().same(Value::F32(1.5)));
+}
+
+#[test]
+fn custom_values_are_set_in_the_extended_protocol_only() {
+    let mut config = ClientConfig::new(GCS);
+    config.protocol = Protocol::Ext;
+    let mut c: Client<1> = Client::new(config, VEHICLE);
+    let p = name("CAM_MODE");
+    let bytes = Bytes::from_bytes(b"video 4k");
+    c.set_custom(p, bytes).unwrap();
+    let Some(Message::ParamExtSet(m)) = c.poll_transmit(0) else {
+        panic!()
+    };
+    assert_eq!(
+        (m.param_type, m.param_value),
+        (MavParamExtType::Custom, bytes)
+    );
+    let ack = ParamExtAck {
+        param_id: p,
+        param_value: bytes,
+        param_type: MavParamExtType::Custom,
+        param_result: ParamAck::Accepted,
+    };
+    c.handle(5_000, VEHICLE, &Message::ParamExtAck(ack));
+    let Some(Event::Set(Some(r))) = c.poll_event() else {
+        panic!()
+    };
+    assert_eq!((r.value, r.custom), (None, Some(bytes)));
+    // Our server holds no CUSTOM values: refused, with nothing acknowledged.
+    let (mut gcs, mut vehicle) = pair_in(3, Encoding::Bytewise, Protocol::Ext);
+    let mut sim = Sim::new(9, Faults::CLEAN);
+    let target = vehicle.params[1].name;
+    gcs.client.set_custom(target, bytes).unwrap();
+    let Event::Set(Some(r)) = run_op(&mut sim, &mut gcs, &mut vehicle) else {
+        panic!()
+    };
+    assert_eq!((r.value, r.custom), (None, None));
+    // V1 has no CUSTOM type: over at once.
+    let mut v1: Client<1> = Client::new(ClientConfig::new(GCS), VEHICLE);
+    v1.set_custom(p, bytes).unwrap();
+    assert_eq!(v1.poll_event(), Some(Event::Set(None)));
+    assert!(v1.poll_transmit(0).is_none() && v1.is_idle());
 }

@@ -1,11 +1,11 @@
 //! The parameter client: lists, reads and sets.
 
 use super::super::messages::{
-    Heartbeat, MavAutopilot, Message, ParamAck, ParamExtRequestList, ParamExtRequestRead,
-    ParamExtSet, ParamRequestList, ParamRequestRead, ParamSet,
+    Heartbeat, MavAutopilot, MavParamExtType, Message, ParamAck, ParamExtRequestList,
+    ParamExtRequestRead, ParamExtSet, ParamRequestList, ParamRequestRead, ParamSet,
 };
 use super::super::{Address, Busy, Retry, Rtt};
-use super::{Encoding, Name, Protocol, Received, Value};
+use super::{Bytes, Encoding, Name, Protocol, Received, Value};
 
 /// What a client's operation came to.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -92,6 +92,11 @@ enum Op {
     Set {
         name: Name,
         value: Value,
+    },
+    /// A PARAM_EXT CUSTOM value.
+    SetCustom {
+        name: Name,
+        bytes: Bytes,
     },
 }
 
@@ -252,6 +257,18 @@ impl<const W: usize> Client<W> {
         self.start(Op::Set { name, value })
     }
 
+    /// Sets the PARAM_EXT CUSTOM parameter called `name` to `bytes` (128 bytes of the
+    /// target's own meaning; a camera's text, NUL-padded). [`Event::Set`] ends it with the
+    /// bytes the target acknowledged in [`Received::custom`]. Only in [`Protocol::Ext`]: in
+    /// V1, which has no such type, it ends at once with `Event::Set(None)`.
+    pub fn set_custom(&mut self, name: Name, bytes: Bytes) -> Result<(), Busy> {
+        self.start(Op::SetCustom { name, bytes })?;
+        if self.config.protocol != Protocol::Ext {
+            self.finish(Event::Set(None));
+        }
+        Ok(())
+    }
+
     /// Whether index `i` has been received during the current list.
     pub fn has(&self, i: u16) -> bool {
         let (w, b) = (usize::from(i / 32), i % 32);
@@ -296,6 +313,7 @@ impl<const W: usize> Client<W> {
                     index: v.param_index,
                     count: v.param_count,
                     value: Value::decode(v.param_value, v.param_type, self.encoding),
+                    custom: None,
                 }
             }
             Message::ParamExtValue(v) if ext => Received {
@@ -303,14 +321,16 @@ impl<const W: usize> Client<W> {
                 index: v.param_index,
                 count: v.param_count,
                 value: Value::from_ext(&v.param_value, v.param_type),
+                custom: (v.param_type == MavParamExtType::Custom).then_some(v.param_value),
             },
             Message::ParamExtAck(a) if ext => {
-                let Op::Set { name, .. } = self.op else {
+                let (Op::Set { name, .. } | Op::SetCustom { name, .. }) = self.op else {
                     return None;
                 };
                 if a.param_id != name {
                     return None;
                 }
+                let accepted = a.param_result == ParamAck::Accepted;
                 if let Some(sent) = self.sent_us.take() {
                     self.rtt.sample(now_us.saturating_sub(sent));
                 }
@@ -318,9 +338,11 @@ impl<const W: usize> Client<W> {
                     name: a.param_id,
                     index: u16::MAX,
                     count: 0,
-                    value: (a.param_result == ParamAck::Accepted)
+                    value: accepted
                         .then(|| Value::from_ext(&a.param_value, a.param_type))
                         .flatten(),
+                    custom: (accepted && a.param_type == MavParamExtType::Custom)
+                        .then_some(a.param_value),
                 };
                 if a.param_result == ParamAck::InProgress {
                     // Alive and working on it: wait as long as the longest wait, from now.
@@ -338,7 +360,8 @@ impl<const W: usize> Client<W> {
             self.rtt.sample(now_us.saturating_sub(sent));
         }
         match self.op {
-            Op::Idle => {}
+            // A CUSTOM set is answered by PARAM_EXT_ACK alone.
+            Op::Idle | Op::SetCustom { .. } => {}
             Op::List { count, .. } => {
                 if received.index < received.count {
                     if let Some(slot) = self
@@ -455,7 +478,7 @@ impl<const W: usize> Client<W> {
                 self.finish(Event::Read(None));
                 return None;
             }
-            Op::Set { .. } if exhausted => {
+            Op::Set { .. } | Op::SetCustom { .. } if exhausted => {
                 self.finish(Event::Set(self.set_mismatch));
                 return None;
             }
@@ -476,6 +499,13 @@ impl<const W: usize> Client<W> {
                     param_type: value.ext_type(),
                 }),
             },
+            Op::SetCustom { name, bytes } => Message::ParamExtSet(ParamExtSet {
+                target_system: target.system,
+                target_component: target.component,
+                param_id: name,
+                param_value: bytes,
+                param_type: MavParamExtType::Custom,
+            }),
         };
         self.sent_us = self.rtt.time_sending(now_us, self.tries == 0);
         self.tries = self.tries.saturating_add(1);

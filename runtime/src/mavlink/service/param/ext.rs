@@ -5,8 +5,10 @@
 //! to be agreed. A set is answered by PARAM_EXT_ACK: ACCEPTED with the new value, or another
 //! result with the value held; IN_PROGRESS says the answer will follow.
 //!
-//! MAV_PARAM_EXT_TYPE_CUSTOM (128 bytes of the server's own meaning) is not a [`Value`]: such
-//! a parameter is listed with no value, and a set of one is refused.
+//! MAV_PARAM_EXT_TYPE_CUSTOM (128 bytes of the server's own meaning) is not a [`Value`]: a
+//! client gets such a value's bytes in [`super::Received::custom`] and sets them with
+//! [`super::Client::set_custom`]. The [`super::Server`] serves [`Value`]s only, and refuses a
+//! set of CUSTOM bytes (VALUE_UNSUPPORTED).
 
 use super::super::messages::{MavParamExtType, MavParamType};
 use super::Value;

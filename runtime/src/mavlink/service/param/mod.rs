@@ -421,6 +421,9 @@ pub struct Received {
     /// (PARAM_VALUE of a 64-bit type), for PARAM_EXT's CUSTOM type, and for a set the target
     /// refused by PARAM_EXT_ACK.
     pub value: Option<Value>,
+    /// A PARAM_EXT CUSTOM value's 128 bytes (its meaning is the target's own; `value` is
+    /// `None`).
+    pub custom: Option<Bytes>,
 }
 
 #[cfg(test)]
