@@ -34,7 +34,7 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
   lossy_params       both ``param list`` directions again through a UDP relay that loses 20 %
                      of datagrams, repeats 5 % and delays some past later ones (seeded):
                      MAVSDK lists our vehicle, and we list MAVSDK's ParamServer, every value
-                     exact.
+                     exact; then both again in PARAM_EXT_*.
   mavsdk_ftp         MAVSDK's Ftp plugin against our vehicle's --ftp-root: a directory listed,
                      a 300 kB file downloaded with and without bursts byte for byte, a file
                      uploaded, compared by CRC-32 (are_files_identical), renamed and removed,
@@ -109,6 +109,8 @@ PARAMS = [
 ]
 INTS = {n: v for n, t, v in PARAMS if t != 9}
 FLOATS = {n: f32(v) for n, t, v in PARAMS if t == 9}
+# A CUSTOM parameter's text, for a ParamServer speaking PARAM_EXT_*.
+CUSTOM_TEXT = "a camera's own text"
 # And the 64-bit types, which PARAM_EXT_* carry whole: values no f64 holds exactly.
 WIDE = [
     ("U64_PARAM", 7, 18446744073709551557),
@@ -367,9 +369,21 @@ async def check_mavsdk_params(args):
     return "; ".join(notes)
 
 
-async def check_mavsdk_param_ext(args):
+async def select_ext(system):
+    """MAVSDK's Param plugin for component 1, speaking PARAM_EXT_*."""
     from mavsdk.asyncio.plugins.param import ParamAsync, ProtocolVersion
     from mavsdk.plugins.param.param import ParamError, ParamResult
+    param = ParamAsync(system)
+    try:
+        await param.select_component(1, ProtocolVersion.EXT)
+    except ParamError as e:
+        # MAVSDK 4.1 makes the choice and then reports UNKNOWN, whatever happens.
+        if e.result != ParamResult.UNKNOWN:
+            raise
+    return param
+
+
+async def check_mavsdk_param_ext(args):
     port = free_udp_port()
     # A relay that loses nothing, to see which messages MAVSDK speaks.
     relay = Relay((HOST, port), args.seed, loss=0, dup=0, reorder=0)
@@ -378,13 +392,7 @@ async def check_mavsdk_param_ext(args):
     try:
         mavsdk, system = await mavsdk_gcs(uri)
         try:
-            param = ParamAsync(system)
-            try:
-                await param.select_component(1, ProtocolVersion.EXT)
-            except ParamError as e:
-                # MAVSDK 4.1 makes the choice and then reports UNKNOWN, whatever happens.
-                if e.result != ParamResult.UNKNOWN:
-                    raise
+            param = await select_ext(system)
             n = compare_listing(await param.get_all_params(), INTS, FLOATS)
             await param.set_param_int("I32_PARAM", -123456)
             await param.set_param_float("F_PARAM", 2.5)
@@ -425,50 +433,15 @@ async def check_mavsdk_param_ext(args):
 
 
 async def check_our_param_ext(args):
-    from mavsdk.asyncio.plugins.param_server import ParamServerAsync
-    from mavsdk.asyncio import Mavsdk, Configuration, ComponentType
     port = free_udp_port()
     uri = "udpin://%s:%d" % (HOST, port)
-    cfg = Configuration.create_with_component_type(ComponentType.AUTOPILOT)
-    cfg.system_id = 1
-    cfg.component_id = 1
-    mavsdk = Mavsdk(cfg)
-    await mavsdk.__aenter__()
-    events = []
-    tasks = []
+    mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, port),
+                                                      extended=True)
     try:
-        await mavsdk.add_any_connection("udpout://%s:%d" % (HOST, port))
-        server = ParamServerAsync(await mavsdk.server_component())
-        await server.set_protocol(True)
-        for name, value in INTS.items():
-            await server.provide_param_int(name, value)
-        for name, value in FLOATS.items():
-            await server.provide_param_float(name, value)
-        await server.provide_param_custom("CUSTOM_PARAM", "a camera's own text")
-
-        async def watch_ints():
-            async for p in server.subscribe_changed_param_int():
-                events.append(("int", p.name, p.value))
-
-        async def watch_floats():
-            async for p in server.subscribe_changed_param_float():
-                events.append(("float", p.name, p.value))
-        tasks += [asyncio.ensure_future(watch_ints()), asyncio.ensure_future(watch_floats())]
         rc, out, err = await ferrolink(args, "param", "list", uri, "--ext", "--timeout", "30")
         if rc != 0:
             raise CheckFailed("param list --ext exited %d: %s" % (rc, err))
-        n = check_list_output(out, "param list --ext")
-        custom = [json.loads(l) for l in out.splitlines() if "CUSTOM_PARAM" in l]
-        if len(custom) != 1 or custom[0]["value"] != "a camera's own text" \
-                or custom[0]["type"] != "CUSTOM":
-            raise CheckFailed("CUSTOM_PARAM listed as %r" % custom)
-        rc, out, err = await ferrolink(args, "param", "set", uri, "CUSTOM_PARAM", "ISO 400",
-                                       "--ext")
-        if rc != 0 or json.loads(out)["value"] != "ISO 400":
-            raise CheckFailed("param set --ext CUSTOM: %d %r %r" % (rc, out, err))
-        held = await server.retrieve_param_custom("CUSTOM_PARAM")
-        if held not in ("ISO 400", b"ISO 400"):
-            raise CheckFailed("MAVSDK's ParamServer holds CUSTOM_PARAM %r after our set" % held)
+        n = check_list_output(out, "param list --ext", custom=True)
         rc, out, err = await ferrolink(args, "param", "set", uri, "I32_PARAM", "-77", "--ext")
         if rc != 0 or json.loads(out)["value"] != -77:
             raise CheckFailed("param set --ext int: %d %r %r" % (rc, out, err))
@@ -478,6 +451,13 @@ async def check_our_param_ext(args):
         rc, out, err = await ferrolink(args, "param", "get", uri, "F_NEG", "--ext")
         if rc != 0 or f32(json.loads(out)["value"]) != FLOATS["F_NEG"]:
             raise CheckFailed("param get --ext: %d %r %r" % (rc, out, err))
+        rc, out, err = await ferrolink(args, "param", "set", uri, "CUSTOM_PARAM", "ISO 400",
+                                       "--ext")
+        if rc != 0 or json.loads(out)["value"] != "ISO 400":
+            raise CheckFailed("param set --ext CUSTOM: %d %r %r" % (rc, out, err))
+        held = await keep[0].retrieve_param_custom("CUSTOM_PARAM")
+        if held not in ("ISO 400", b"ISO 400"):
+            raise CheckFailed("MAVSDK's ParamServer holds CUSTOM_PARAM %r after our set" % held)
         await asyncio.sleep(0.5)
         if ("int", "I32_PARAM", -77) not in events or ("float", "F_PARAM", 0.25) not in events:
             raise CheckFailed("MAVSDK's ParamServer saw %s" % events)
@@ -504,8 +484,9 @@ async def check_mavsdk_action(args):
     return "arm, takeoff, disarm accepted"
 
 
-async def mavsdk_vehicle(url, params=True, action=False):
-    """A vehicle from MAVSDK's server plugins: returns (mavsdk, events, tasks)."""
+async def mavsdk_vehicle(url, params=True, action=False, extended=False):
+    """A vehicle from MAVSDK's server plugins: returns (mavsdk, events, tasks, keep). With
+    ``extended``, its ParamServer speaks PARAM_EXT_* and has a CUSTOM parameter too."""
     from mavsdk.asyncio import Mavsdk, Configuration, ComponentType
     from mavsdk.asyncio.plugins.param_server import ParamServerAsync
     from mavsdk.asyncio.plugins.action_server import ActionServerAsync
@@ -522,10 +503,14 @@ async def mavsdk_vehicle(url, params=True, action=False):
     if params:
         server = ParamServerAsync(component)
         keep.append(server)
+        if extended:
+            await server.set_protocol(True)
         for name, value in INTS.items():
             await server.provide_param_int(name, value)
         for name, value in FLOATS.items():
             await server.provide_param_float(name, value)
+        if extended:
+            await server.provide_param_custom("CUSTOM_PARAM", CUSTOM_TEXT)
 
         async def watch_ints():
             async for p in server.subscribe_changed_param_int():
@@ -555,9 +540,12 @@ async def close_vehicle(mavsdk, tasks):
     await mavsdk.__aexit__(None, None, None)
 
 
-def check_list_output(out, who):
+def check_list_output(out, who, custom=False):
     lines = [json.loads(l) for l in out.splitlines() if l.strip()]
     got = {l["name"]: l for l in lines}
+    if custom and got.get("CUSTOM_PARAM") != dict(got.get("CUSTOM_PARAM", {}),
+                                                   value=CUSTOM_TEXT, type="CUSTOM"):
+        raise CheckFailed("%s: CUSTOM_PARAM listed as %r" % (who, got.get("CUSTOM_PARAM")))
     for name, value in INTS.items():
         l = got.get(name)
         if not l or l["value"] != value:
@@ -650,6 +638,40 @@ async def check_lossy_params(args):
             raise CheckFailed("param list through the relay exited %d: %s" % (rc, err))
         n = check_list_output(out, "param list through the relay")
         notes.append("we listed MAVSDK's %d in %.1f s (%s)" % (n, time.monotonic() - t0, relay.stats))
+    finally:
+        await close_vehicle(mavsdk, tasks)
+        relay.close()
+    # The same in PARAM_EXT_*: MAVSDK's client against our vehicle with 64-bit values, ours
+    # against MAVSDK's extended ParamServer.
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed + 2)
+    vehicle = await start_vehicle(args, "px4", relay.port, params=PARAMS + WIDE)
+    try:
+        mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
+        try:
+            param = await select_ext(system)
+            t0 = time.monotonic()
+            n = compare_listing(await param.get_all_params(), INTS, FLOATS)
+            notes.append("MAVSDK listed our %d over PARAM_EXT in %.1f s (%s)"
+                         % (n, time.monotonic() - t0, relay.stats))
+        finally:
+            await mavsdk.__aexit__(None, None, None)
+    finally:
+        await stop(vehicle)
+        relay.close()
+    port = free_udp_port()
+    relay = Relay((HOST, port), args.seed + 3)
+    mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, relay.port),
+                                                      extended=True)
+    try:
+        t0 = time.monotonic()
+        rc, out, err = await ferrolink(args, "param", "list", "udpin://%s:%d" % (HOST, port),
+                                       "--ext", "--timeout", "60")
+        if rc != 0:
+            raise CheckFailed("param list --ext through the relay exited %d: %s" % (rc, err))
+        n = check_list_output(out, "param list --ext through the relay", custom=True)
+        notes.append("we listed MAVSDK's %d over PARAM_EXT in %.1f s (%s)"
+                     % (n, time.monotonic() - t0, relay.stats))
     finally:
         await close_vehicle(mavsdk, tasks)
         relay.close()
