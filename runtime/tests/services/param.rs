@@ -6,7 +6,7 @@ use ferrolink_runtime::mavlink::service::messages::{
 };
 use ferrolink_runtime::mavlink::service::param::{
     Bytes, Client, ClientConfig, Encoding, Event, Name, Param, Protocol, Received, Server,
-    ServerConfig, Store, Value,
+    ServerConfig, Store, Value, LIST_BURST,
 };
 use ferrolink_runtime::mavlink::service::Address;
 use proptest::prelude::*;
@@ -743,4 +743,30 @@ fn custom_values_are_set_in_the_extended_protocol_only() {
     v1.set_custom(p, bytes).unwrap();
     assert_eq!(v1.poll_event(), Some(Event::Set(None)));
     assert!(v1.poll_transmit(0).is_none() && v1.is_idle());
+}
+
+#[test]
+fn a_paced_list_keeps_its_rate_when_polled_late() {
+    let params = store(100, 1);
+    let mut config = ServerConfig::new(VEHICLE);
+    config.list_interval_us = 100;
+    let mut server: Server<4> = Server::new(config);
+    let mut p = params.clone();
+    server.handle(
+        &mut p[..],
+        0,
+        GCS,
+        &Message::ParamRequestList(Default::default()),
+    );
+    let mut drain =
+        |now: u64| std::iter::from_fn(|| server.poll_transmit(&params[..], now)).count();
+    // One at once, then nothing before the next is due.
+    assert_eq!(drain(0), 1);
+    assert_eq!(drain(50), 0);
+    assert_eq!(drain(100), 1);
+    // Polled 1 ms late: what fell due meanwhile, at most LIST_BURST at once.
+    assert_eq!(drain(1_100), LIST_BURST as usize);
+    // Polled every 300 µs: three a time, 1 every 100 µs on average.
+    assert_eq!(drain(1_400), 3);
+    assert_eq!(drain(1_700), 3);
 }

@@ -23,7 +23,7 @@ mod server;
 
 pub use client::{Client, ClientConfig, Event};
 pub use ext::Bytes;
-pub use server::{Server, ServerConfig};
+pub use server::{Server, ServerConfig, LIST_BURST};
 
 use super::messages::{MavAutopilot, MavParamType};
 use crate::mavlink::CharArray;

@@ -4,6 +4,9 @@ use super::super::messages::{Message, ParamAck, ParamExtAck, ParamExtValue, Para
 use super::super::Address;
 use super::{Encoding, Param, Store, Value};
 
+/// The most list values a paced stream sends at once after a late poll.
+pub const LIST_BURST: u64 = 8;
+
 /// What a queued answer is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Answer {
@@ -22,8 +25,9 @@ pub struct ServerConfig {
     pub own: Address,
     /// How integers are put into PARAM_VALUE.
     pub encoding: Encoding,
-    /// The least time between two values of a list stream (µs); 0 sends as fast as the caller
-    /// polls.
+    /// The time between two values of a list stream (µs), on average: a caller that polls
+    /// late gets what fell due meanwhile, up to [`LIST_BURST`] values at once, so the stream
+    /// keeps its rate whatever the caller's timer does. 0 sends as fast as the caller polls.
     pub list_interval_us: u64,
     /// Sends PX4's `_HASH_CHECK` first in every list, and stops the list when a client answers
     /// that its cache has that hash ([`super::hash`]). Off by default.
@@ -187,9 +191,13 @@ impl<const Q: usize> Server<Q> {
         if now_us < self.list_due_us {
             return None;
         }
+        // The next is due one interval after this one was; after a late poll, what fell due
+        // meanwhile goes at once, at most LIST_BURST values.
+        let interval = self.config.list_interval_us;
+        let late = now_us.saturating_sub(interval.saturating_mul(LIST_BURST - 1));
+        self.list_due_us = self.list_due_us.max(late).saturating_add(interval);
         if self.hash_due {
             self.hash_due = false;
-            self.list_due_us = now_us.saturating_add(self.config.list_interval_us);
             return Some(super::hash::announce(super::hash::hash(store), count));
         }
         if next >= count {
@@ -197,7 +205,6 @@ impl<const Q: usize> Server<Q> {
             return None;
         }
         self.list_next = Some(next + 1);
-        self.list_due_us = now_us.saturating_add(self.config.list_interval_us);
         let answer = if self.list_ext {
             Answer::ExtValue
         } else {
