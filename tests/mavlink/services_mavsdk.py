@@ -608,73 +608,53 @@ async def check_our_command(args):
     return "armed (%s); an unanswered command exits 2" % (events,)
 
 
-async def check_lossy_params(args):
+async def mavsdk_lists_ours(args, seed, ext):
+    """MAVSDK's Param plugin lists our vehicle through the relay (in PARAM_EXT_* when ``ext``,
+    with 64-bit parameters among ours)."""
     from mavsdk.asyncio.plugins.param import ParamAsync
-    notes = []
-    # MAVSDK lists our vehicle through the relay.
     port = free_udp_port()
-    relay = Relay((HOST, port), args.seed)
-    vehicle = await start_vehicle(args, "px4", relay.port)
+    relay = Relay((HOST, port), seed)
+    vehicle = await start_vehicle(args, "px4", relay.port, params=PARAMS + WIDE if ext else PARAMS)
     try:
         mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
         try:
-            t0 = time.monotonic()
-            n = compare_listing(await ParamAsync(system).get_all_params(), INTS, FLOATS)
-            notes.append("MAVSDK listed our %d in %.1f s (%s)" % (n, time.monotonic() - t0, relay.stats))
-        finally:
-            await mavsdk.__aexit__(None, None, None)
-    finally:
-        await stop(vehicle)
-        relay.close()
-    # We list MAVSDK's ParamServer through the relay.
-    port = free_udp_port()
-    relay = Relay((HOST, port), args.seed + 1)
-    mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, relay.port))
-    try:
-        t0 = time.monotonic()
-        rc, out, err = await ferrolink(args, "param", "list", "udpin://%s:%d" % (HOST, port),
-                                       "--timeout", "60")
-        if rc != 0:
-            raise CheckFailed("param list through the relay exited %d: %s" % (rc, err))
-        n = check_list_output(out, "param list through the relay")
-        notes.append("we listed MAVSDK's %d in %.1f s (%s)" % (n, time.monotonic() - t0, relay.stats))
-    finally:
-        await close_vehicle(mavsdk, tasks)
-        relay.close()
-    # The same in PARAM_EXT_*: MAVSDK's client against our vehicle with 64-bit values, ours
-    # against MAVSDK's extended ParamServer.
-    port = free_udp_port()
-    relay = Relay((HOST, port), args.seed + 2)
-    vehicle = await start_vehicle(args, "px4", relay.port, params=PARAMS + WIDE)
-    try:
-        mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
-        try:
-            param = await select_ext(system)
+            param = await select_ext(system) if ext else ParamAsync(system)
             t0 = time.monotonic()
             n = compare_listing(await param.get_all_params(), INTS, FLOATS)
-            notes.append("MAVSDK listed our %d over PARAM_EXT in %.1f s (%s)"
-                         % (n, time.monotonic() - t0, relay.stats))
+            return "MAVSDK listed our %d%s in %.1f s (%s)" % (
+                n, " over PARAM_EXT" if ext else "", time.monotonic() - t0, relay.stats)
         finally:
             await mavsdk.__aexit__(None, None, None)
     finally:
         await stop(vehicle)
         relay.close()
+
+
+async def we_list_mavsdks(args, seed, ext):
+    """``param list`` (``--ext`` when ``ext``) of MAVSDK's ParamServer through the relay."""
     port = free_udp_port()
-    relay = Relay((HOST, port), args.seed + 3)
+    relay = Relay((HOST, port), seed)
     mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, relay.port),
-                                                      extended=True)
+                                                      extended=ext)
     try:
         t0 = time.monotonic()
         rc, out, err = await ferrolink(args, "param", "list", "udpin://%s:%d" % (HOST, port),
-                                       "--ext", "--timeout", "60")
+                                       "--timeout", "60", *(["--ext"] if ext else []))
         if rc != 0:
-            raise CheckFailed("param list --ext through the relay exited %d: %s" % (rc, err))
-        n = check_list_output(out, "param list --ext through the relay", custom=True)
-        notes.append("we listed MAVSDK's %d over PARAM_EXT in %.1f s (%s)"
-                     % (n, time.monotonic() - t0, relay.stats))
+            raise CheckFailed("param list through the relay exited %d: %s" % (rc, err))
+        n = check_list_output(out, "param list through the relay", custom=ext)
+        return "we listed MAVSDK's %d%s in %.1f s (%s)" % (
+            n, " over PARAM_EXT" if ext else "", time.monotonic() - t0, relay.stats)
     finally:
         await close_vehicle(mavsdk, tasks)
         relay.close()
+
+
+async def check_lossy_params(args):
+    notes = []
+    for i, ext in enumerate((False, True)):
+        notes.append(await mavsdk_lists_ours(args, args.seed + 2 * i, ext))
+        notes.append(await we_list_mavsdks(args, args.seed + 2 * i + 1, ext))
     return "; ".join(notes)
 
 

@@ -434,24 +434,7 @@ impl Node for Rewinder {
         let seq = self.due.take()?;
         self.next = seq + 1;
         self.count_at = now + 200_000;
-        let it = self.items[usize::from(seq)];
-        Some(Message::MissionItemInt(MissionItemInt {
-            target_system: 1,
-            target_component: 1,
-            seq,
-            frame: it.frame,
-            command: it.command,
-            current: it.current,
-            autocontinue: it.autocontinue,
-            param1: it.params[0],
-            param2: it.params[1],
-            param3: it.params[2],
-            param4: it.params[3],
-            x: it.x,
-            y: it.y,
-            z: it.z,
-            mission_type: MavMissionType::Mission,
-        }))
+        Some(item_int(&self.items, seq))
     }
     fn poll_timeout(&self) -> Option<u64> {
         Some(self.count_at)

@@ -214,8 +214,8 @@ impl Value {
         }
         let n = match self {
             Value::F32(v) => match ty {
-                MavParamType::Real64 => return Some(Value::F64(super::widen(v))),
-                _ => f32_integer(v)?,
+                MavParamType::Real64 => return Some(Value::F64(f64::from(v))),
+                _ => f64_integer(f64::from(v))?,
             },
             Value::F64(v) => match ty {
                 MavParamType::Real32 => return Some(Value::F32(v as f32)),
@@ -330,20 +330,6 @@ fn f32_integer32(v: f32) -> Option<i64> {
 
 /// `v` as an integer, if it is one and within `i64::MIN..=u64::MAX` (beyond, no integer type
 /// holds it). `as` saturates, so the round trip is exact only in range.
-fn f32_integer(v: f32) -> Option<i128> {
-    if v < 0.0 {
-        let i = v as i64;
-        (i as f32 == v).then_some(i128::from(i))
-    } else if v < 18_446_744_073_709_551_616.0 {
-        let u = v as u64;
-        (u as f32 == v).then_some(i128::from(u))
-    } else {
-        // Too large, or NaN.
-        None
-    }
-}
-
-/// [`f32_integer`] for an `f64`.
 fn f64_integer(v: f64) -> Option<i128> {
     if v < 0.0 {
         let i = v as i64;
