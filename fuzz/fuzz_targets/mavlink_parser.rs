@@ -9,7 +9,8 @@
 //! - handed-out frames are whole, valid frame views with known incompat flags only;
 //! - the stats add up: every byte fed is garbage, a rejected magic byte, part of a frame, or
 //!   still buffered;
-//! - chunking does not matter: the same frames and stats as when feeding the stream at once.
+//! - chunking does not matter: the same frames and stats as when feeding the stream at once;
+//! - `feed_all` hands out the same frames, with the same stats, as a loop over `feed`.
 //!
 //! Run with `cargo fuzz run mavlink_parser corpus/mavlink_parser seeds/mavlink_parser`.
 #![no_main]
@@ -109,7 +110,7 @@ fuzz_target!(|data: &[u8]| {
 
     let mut sizes = Chunks(u32::from(control) | 0x100);
     let mut rest = stream;
-    let mut split = core::iter::from_fn(|| {
+    let split = core::iter::from_fn(|| {
         if rest.is_empty() {
             return None;
         }
@@ -117,8 +118,16 @@ fuzz_target!(|data: &[u8]| {
         rest = tail;
         Some(chunk)
     });
+    let chunks: Vec<&[u8]> = split.collect();
     let mut parser: Parser = Parser::new(META).pass_unknown_ids(pass_unknown);
-    let chunked = check_frames(&mut parser, &mut split, pass_unknown);
+    let chunked = check_frames(&mut parser, &mut chunks.iter().copied(), pass_unknown);
+
+    let mut parser: Parser = Parser::new(META).pass_unknown_ids(pass_unknown);
+    let mut frames = Vec::new();
+    for chunk in &chunks {
+        parser.feed_all(chunk, |frame| frames.push(frame.as_bytes().to_vec()));
+    }
+    assert_eq!((frames, *parser.stats()), chunked);
 
     let mut parser: Parser = Parser::new(META).pass_unknown_ids(pass_unknown);
     let whole = check_frames(&mut parser, &mut core::iter::once(stream), pass_unknown);

@@ -731,6 +731,41 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Deframer for Parser<N, T> {
         Parser::feed(self, input)
     }
 
+    /// Frames back to back with nothing buffered, the common case of a read, are judged in
+    /// place and handed to `on_frame` in one loop; anything else goes through `feed`.
+    fn feed_all(&mut self, mut input: &[u8], mut on_frame: impl FnMut(ParsedFrame<'_>)) -> usize {
+        let mut n = 0;
+        loop {
+            if self.pending == 0 && self.start == self.end {
+                while let Some(&magic) = input.first() {
+                    if !is_magic(magic) {
+                        break;
+                    }
+                    let Eval::Accept { len, meta } = self.evaluate(input) else {
+                        break;
+                    };
+                    self.need = 0;
+                    self.count_frame(meta.is_none());
+                    let (bytes, rest) = input.split_at_checked(len).unwrap_or((input, &[]));
+                    on_frame(ParsedFrame {
+                        frame: any_frame(bytes),
+                        meta: meta.and_then(|m| self.resolve(m)),
+                    });
+                    input = rest;
+                    n += 1;
+                }
+            }
+            match Parser::feed(self, input) {
+                Feed::Frame { frame, remaining } => {
+                    on_frame(frame);
+                    input = remaining;
+                    n += 1;
+                }
+                Feed::Consumed => return n,
+            }
+        }
+    }
+
     fn stats(&self) -> &Stats {
         &self.stats
     }
@@ -977,6 +1012,45 @@ mod tests {
                 [Big::ID, Big::ID, Big::ID, ExtMsg::ID],
                 "chunk {chunk}"
             );
+        }
+    }
+
+    #[test]
+    fn feed_all_hands_out_what_a_feed_loop_does() {
+        // Frames back to back (the in-place loop), then noise, false starts, bad frames and
+        // frames cut by the chunks (the general path), both kinds of unknown-id handling.
+        let mut stream = Vec::new();
+        for _ in 0..3 {
+            stream.extend(hex(GOLDEN_V2));
+            stream.extend(hex(GOLDEN_SIGNED));
+            stream.extend(hex(GOLDEN_V1));
+        }
+        let mut bad = hex(GOLDEN_V2);
+        bad[19] ^= 1;
+        let mut unknown = hex(GOLDEN_V2);
+        unknown[7] = 1;
+        for noise in [&[0x00, 0xFD, 0x13][..], &bad, &unknown, &[0xFE, 0x00, 0xFD]] {
+            stream.extend(noise);
+            stream.extend(hex(GOLDEN_V2));
+            stream.extend(hex(GOLDEN_V1));
+        }
+        stream.extend(&hex(GOLDEN_V2)[..7]);
+        for pass in [false, true] {
+            for chunk in 1..=stream.len() {
+                let mut looped = P::for_dialect::<TestDialect>().pass_unknown_ids(pass);
+                let mut want = Vec::new();
+                for mut input in stream.chunks(chunk) {
+                    while let Feed::Frame { frame, remaining } = looped.feed(input) {
+                        want.push((frame.as_bytes().to_vec(), frame.is_checked()));
+                        input = remaining;
+                    }
+                }
+                let mut all = P::for_dialect::<TestDialect>().pass_unknown_ids(pass);
+                let got = collect(&mut all, &stream, chunk);
+                assert_eq!(got, want, "chunk {chunk}");
+                assert_eq!(all.stats(), looped.stats(), "chunk {chunk}");
+                assert_eq!(all.buffered(), looped.buffered(), "chunk {chunk}");
+            }
         }
     }
 
