@@ -185,3 +185,37 @@ fn an_ignored_sighup_stays_ignored() {
     let err = stop(router);
     assert!(!err.contains("SIGHUP"), "{err}");
 }
+
+/// How many times the main thread of process `pid` has been scheduled in, where the kernel
+/// keeps schedstat.
+fn main_thread_runs(pid: u32) -> Option<u64> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/schedstat")).ok()?;
+    stat.split_whitespace().nth(2)?.parse().ok()
+}
+
+#[test]
+fn an_idle_router_sleeps_until_a_signal_wakes_it() {
+    let (a, b) = (free_port(), free_port());
+    let router = start(
+        "",
+        &[
+            format!("udpin://127.0.0.1:{a}"),
+            format!("udpin://127.0.0.1:{b}"),
+        ],
+    );
+    thread::sleep(Duration::from_millis(300));
+    let Some(before) = main_thread_runs(router.id()) else {
+        eprintln!("note: no /proc schedstat here; the wake-up count is not checked");
+        stop(router);
+        return;
+    };
+    // Before, it looked at its stop flag once a second.
+    thread::sleep(Duration::from_millis(2_500));
+    assert_eq!(
+        main_thread_runs(router.id()),
+        Some(before),
+        "the idle router woke"
+    );
+    // SIGTERM still stops it at once (`stop` waits at most 5 s).
+    stop(router);
+}

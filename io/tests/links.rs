@@ -557,3 +557,96 @@ mod tty {
         assert_eq!(again.read_exactly(peer, 8), b"reopened");
     }
 }
+
+/// A `udpin` endpoint on a free port whose peers expire after `expiry`.
+fn open_udp_in(expiry: Duration) -> (Opened, u16) {
+    let (port, _) = free_udp_ports();
+    let (tx, events) = mpsc::channel();
+    let sink: link::Sink = Arc::new(move |event| {
+        let ev = match event {
+            link::Event::Up {
+                peer, name, sender, ..
+            } => Ev::Up(peer, name, sender),
+            link::Event::Rx { peer, bytes, .. } => Ev::Rx(peer, bytes.to_vec()),
+            link::Event::Down { peer, why } => Ev::Down(peer, why),
+        };
+        tx.send(ev).is_ok()
+    });
+    let options = link::Options {
+        peer_expiry: expiry,
+        ..link::Options::default()
+    };
+    let endpoint = link::Endpoint::UdpIn("127.0.0.1".into(), port);
+    let handle = link::open(0, &endpoint, options, sink).expect("udpin opens");
+    (Opened { handle, events }, port)
+}
+
+#[test]
+fn quiet_udp_peers_expire_on_time_with_and_without_other_traffic() {
+    let expiry = Duration::from_millis(400);
+    // The reader sets its timeout again only when it would wake more than a sixteenth of the
+    // expiry late; the rest is scheduling.
+    let late = expiry / 16 + Duration::from_millis(150);
+    let on_time = |down: Duration| {
+        assert!(
+            down >= expiry && down <= expiry + late,
+            "down after {down:?}"
+        )
+    };
+    let (opened, port) = open_udp_in(expiry);
+    let to = ("127.0.0.1", port);
+    let quiet = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let start = Instant::now();
+    quiet.send_to(b"once", to).unwrap();
+    let (quiet_peer, ..) = opened.up();
+    opened.datagram(quiet_peer);
+
+    // Another peer keeps sending: the quiet one goes down on time meanwhile.
+    let busy = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut busy_peer = None;
+    let mut quiet_down = None;
+    let mut last_busy = start;
+    while start.elapsed() < expiry + Duration::from_millis(300) {
+        busy.send_to(b"busy", to).unwrap();
+        last_busy = Instant::now();
+        thread::sleep(Duration::from_millis(10));
+        while let Ok(ev) = opened.events.try_recv() {
+            match ev {
+                Ev::Up(peer, ..) => busy_peer = Some(peer),
+                Ev::Rx(..) => {}
+                Ev::Down(peer, _) => {
+                    assert_eq!(peer, quiet_peer, "the busy peer went down");
+                    quiet_down.get_or_insert(start.elapsed());
+                }
+            }
+        }
+    }
+    on_time(quiet_down.expect("the quiet peer went down"));
+    // Then everything stops: the last peer goes down on time too.
+    let busy_peer = busy_peer.expect("the busy peer came up");
+    while let Ev::Rx(peer, _) = opened.next() {
+        assert_eq!(peer, busy_peer);
+    }
+    on_time(last_busy.elapsed());
+
+    // A peer that speaks once, well after the first, does not put off the first one's expiry
+    // (a receive waits the timeout from its own start).
+    let (first, second) = (
+        UdpSocket::bind("127.0.0.1:0").unwrap(),
+        UdpSocket::bind("127.0.0.1:0").unwrap(),
+    );
+    let start = Instant::now();
+    first.send_to(b"first", to).unwrap();
+    let (first_peer, ..) = opened.up();
+    opened.datagram(first_peer);
+    thread::sleep(expiry * 3 / 4 - start.elapsed());
+    let second_at = Instant::now();
+    second.send_to(b"second", to).unwrap();
+    let (second_peer, ..) = opened.up();
+    opened.datagram(second_peer);
+    opened.down(first_peer);
+    on_time(start.elapsed());
+    opened.down(second_peer);
+    on_time(second_at.elapsed());
+    drop(opened.handle);
+}

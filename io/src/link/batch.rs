@@ -125,6 +125,23 @@ fn send_all(
     }
 }
 
+/// The receive buffer asked for on every UDP endpoint's socket: at 50,000 datagrams a second,
+/// tens of milliseconds of traffic, so that a reader the scheduler keeps waiting on a busy
+/// machine loses nothing. The kernel caps it at `net.core.rmem_max`.
+pub(crate) const RECEIVE_BUFFER: usize = 2 << 20;
+
+/// Asks for [`RECEIVE_BUFFER`] bytes of receive buffer; a system that gives less keeps its
+/// default.
+pub(crate) fn widen_receive_buffer(socket: &UdpSocket) {
+    #[cfg(target_os = "linux")]
+    {
+        use nix::sys::socket::{setsockopt, sockopt::RcvBuf};
+        let _ = setsockopt(socket, RcvBuf, &RECEIVE_BUFFER);
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = socket;
+}
+
 /// Room to read a batch of datagrams into.
 pub(crate) struct Inbox {
     buf: Vec<u8>,

@@ -350,6 +350,7 @@ pub fn open(
         Endpoint::UdpIn(host, port) => {
             let socket =
                 Arc::new(UdpSocket::bind(resolve(host, *port).map_err(context)?).map_err(context)?);
+            batch::widen_receive_buffer(&socket);
             udp = Some(socket.clone());
             let local = socket.local_addr().ok();
             spawn(&uri, {
@@ -370,6 +371,7 @@ pub fn open(
                 (std::net::Ipv6Addr::UNSPECIFIED, bind_port).into()
             };
             let socket = Arc::new(UdpSocket::bind(any).map_err(context)?);
+            batch::widen_receive_buffer(&socket);
             udp = Some(socket.clone());
             let local = socket.local_addr().ok();
             // The one peer is known now: report it before returning, so a send right after
@@ -464,12 +466,24 @@ fn udp_in(
     // When the quietest peer would expire: the only reason to wake without a datagram.
     let mut sweep_at: Option<Instant> = None;
     let mut inbox = batch::Inbox::new();
+    // The read timeout is relative to each receive: set for `sweep_at` at `set_at`, a receive
+    // starting later may wake that much after the sweep is due. It is set again when the sweep
+    // moves or it would wake more than a sixteenth of the expiry late, not on every receive:
+    // one system call fewer per batch.
+    let mut set: Option<(Option<Instant>, Instant)> = None;
+    let tolerance = expiry / 16;
     while !stop.load(Ordering::Relaxed) {
-        let wait = sweep_at.map(|t| {
-            t.saturating_duration_since(Instant::now())
-                .max(Duration::from_millis(1))
-        });
-        let _ = socket.set_read_timeout(wait);
+        let now = Instant::now();
+        if set.is_none_or(|(set_for, set_at)| {
+            set_for != sweep_at || (sweep_at.is_some() && now - set_at > tolerance)
+        }) {
+            let wait = sweep_at.map(|t| {
+                t.saturating_duration_since(now)
+                    .max(Duration::from_millis(1))
+            });
+            let _ = socket.set_read_timeout(wait);
+            set = Some((sweep_at, now));
+        }
         let received = inbox.receive(socket);
         if stop.load(Ordering::Relaxed) {
             return;

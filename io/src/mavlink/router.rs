@@ -488,6 +488,7 @@ pub fn run_reloading(
         )?;
         out.flush()?;
     }
+    let has_tlog = lock(&state).tlog.is_some();
     let start = Instant::now();
     let deadline = config.run_for.map(|d| start + d);
     let mut next_json = start + Duration::from_secs(1);
@@ -508,19 +509,30 @@ pub fn run_reloading(
                 }
             }
         }
-        // Looks at `stop` and `reload` once a second; an idle router wakes for nothing else
-        // (the statistics, when asked for, once a second).
-        let mut wake = now + Duration::from_secs(1);
+        // Wakes for the statistics and the deadline, when asked for, and otherwise only when
+        // woken (a signal). Without a wake channel it looks at `stop` once a second, and with
+        // a tlog once a second for a write error to report.
+        let woken = reload_with.as_ref().and_then(|r| r.wake.as_ref());
+        let tick = (woken.is_none() || has_tlog).then(|| now + Duration::from_secs(1));
         let json_at = stats_json.is_some().then_some(next_json);
-        for t in [json_at, next_table, deadline].into_iter().flatten() {
-            wake = wake.min(t);
-        }
-        let wait = wake.saturating_duration_since(now);
-        match reload_with.as_ref().and_then(|r| r.wake.as_ref()) {
-            Some(woken) => {
-                let _ = woken.recv_timeout(wait);
-            }
-            None => std::thread::sleep(wait),
+        let wake = [tick, json_at, next_table, deadline]
+            .into_iter()
+            .flatten()
+            .min();
+        let wait = wake.map(|w| w.saturating_duration_since(now));
+        let gone = match (woken, wait) {
+            (Some(woken), Some(wait)) => matches!(
+                woken.recv_timeout(wait),
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected)
+            ),
+            (Some(woken), None) => woken.recv().is_err(),
+            (None, _) => true,
+        };
+        if gone {
+            // Nothing to wake it: sleep, and look at `stop` at least once a second.
+            std::thread::sleep(
+                wait.map_or(Duration::from_secs(1), |w| w.min(Duration::from_secs(1))),
+            );
         }
         let now = Instant::now();
         let mut s = lock(&state);
