@@ -30,7 +30,7 @@ fn main() {
 fn c_library(xml: &Path, out: &Path) -> Result<(), String> {
     println!("cargo:rerun-if-changed=c/mavlink_c.c");
     println!("cargo:rerun-if-env-changed=FERROLINK_PYTHON");
-    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let workspace = workspace();
     let python = std::env::var_os("FERROLINK_PYTHON")
         .map(PathBuf::from)
         .unwrap_or_else(|| workspace.join(".venv/bin/python"));
@@ -103,7 +103,7 @@ fn common_xml() -> Option<PathBuf> {
     if let Some(path) = std::env::var_os("FERROLINK_COMMON_XML") {
         return Some(PathBuf::from(path));
     }
-    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let workspace = workspace();
     let venv_lib = workspace.join(".venv/lib");
     println!("cargo:rerun-if-changed={}", venv_lib.display());
     let pymavlink = std::fs::read_dir(&venv_lib).ok().and_then(|dirs| {
@@ -115,6 +115,14 @@ fn common_xml() -> Option<PathBuf> {
             .find(|p| p.exists())
     });
     pymavlink.or_else(mavlink_crate_common)
+}
+
+/// The workspace this package is built in, read when the build script runs: `env!` would give
+/// the directory the build script was compiled in, which a target directory shared by two
+/// checkouts keeps.
+fn workspace() -> PathBuf {
+    let manifest = std::env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
+    PathBuf::from(manifest).join("..")
 }
 
 /// The copy inside the `mavlink` crate 0.21, in cargo's registry.

@@ -103,6 +103,10 @@ impl Sink {
         socket
             .set_read_timeout(Some(Duration::from_millis(50)))
             .expect("timeout");
+        // Room for bursts, so that what is lost is lost in the router, not in this peer's
+        // socket while the scheduler keeps its thread waiting (the kernel caps it at
+        // net.core.rmem_max).
+        let _ = socket2::SockRef::from(&socket).set_recv_buffer_size(4 << 20);
         let received = Arc::new(Mutex::new(Vec::with_capacity(1 << 20)));
         let stop = Arc::new(AtomicBool::new(false));
         let thread = {

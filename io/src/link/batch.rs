@@ -11,7 +11,7 @@ use std::ops::Range;
 use std::sync::Arc;
 
 /// Datagrams read at most per call.
-pub(crate) const BATCH: usize = 16;
+pub(crate) const BATCH: usize = 64;
 /// Room for each datagram of a batch: the largest UDP datagram fits. (The buffer is allocated
 /// zeroed, so the kernel maps its pages only as datagrams fill them.)
 pub(crate) const DATAGRAM_ROOM: usize = 64 * 1024;

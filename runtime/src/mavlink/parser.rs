@@ -732,11 +732,12 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Deframer for Parser<N, T> {
     }
 
     /// Frames back to back with nothing buffered, the common case of a read, are judged in
-    /// place and handed to `on_frame` in one loop; anything else goes through `feed`.
+    /// place and handed to `on_frame` in one loop, without a `Feed` per frame; anything else
+    /// goes through `feed`. A single byte (a UART's) goes straight to `feed`.
     fn feed_all(&mut self, mut input: &[u8], mut on_frame: impl FnMut(ParsedFrame<'_>)) -> usize {
         let mut n = 0;
         loop {
-            if self.pending == 0 && self.start == self.end {
+            if input.len() > 1 && self.pending == 0 && self.start == self.end {
                 while let Some(&magic) = input.first() {
                     if !is_magic(magic) {
                         break;
@@ -744,7 +745,6 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Deframer for Parser<N, T> {
                     let Eval::Accept { len, meta } = self.evaluate(input) else {
                         break;
                     };
-                    self.need = 0;
                     self.count_frame(meta.is_none());
                     let (bytes, rest) = input.split_at_checked(len).unwrap_or((input, &[]));
                     on_frame(ParsedFrame {
