@@ -27,8 +27,8 @@ struct Opened {
     events: mpsc::Receiver<Ev>,
 }
 
-fn try_open(uri: &str) -> io::Result<Opened> {
-    let interface: Interface = uri.parse().unwrap_or_else(|e| panic!("{uri}: {e}"));
+/// A sink that sends every event, owned, to the receiver it returns.
+fn events() -> (link::Sink, mpsc::Receiver<Ev>) {
     let (tx, events) = mpsc::channel();
     let sink: link::Sink = Arc::new(move |event| {
         let ev = match event {
@@ -40,6 +40,12 @@ fn try_open(uri: &str) -> io::Result<Opened> {
         };
         tx.send(ev).is_ok()
     });
+    (sink, events)
+}
+
+fn try_open(uri: &str) -> io::Result<Opened> {
+    let interface: Interface = uri.parse().unwrap_or_else(|e| panic!("{uri}: {e}"));
+    let (sink, events) = events();
     let handle = link::open(0, &interface.endpoint, link::Options::default(), sink)?;
     Ok(Opened { handle, events })
 }
@@ -561,17 +567,7 @@ mod tty {
 /// A `udpin` endpoint on a free port whose peers expire after `expiry`.
 fn open_udp_in(expiry: Duration) -> (Opened, u16) {
     let (port, _) = free_udp_ports();
-    let (tx, events) = mpsc::channel();
-    let sink: link::Sink = Arc::new(move |event| {
-        let ev = match event {
-            link::Event::Up {
-                peer, name, sender, ..
-            } => Ev::Up(peer, name, sender),
-            link::Event::Rx { peer, bytes, .. } => Ev::Rx(peer, bytes.to_vec()),
-            link::Event::Down { peer, why } => Ev::Down(peer, why),
-        };
-        tx.send(ev).is_ok()
-    });
+    let (sink, events) = events();
     let options = link::Options {
         peer_expiry: expiry,
         ..link::Options::default()
