@@ -411,7 +411,7 @@ impl<'c> Remote<'c> {
     }
 
     /// Uploads `items` as the target's `kind` (mission, fence or rally points); the target's
-    /// answer, `None` when it stopped answering every attempt. `progress` sees (items sent,
+    /// answer, `None` when it stopped answering (or stopped moving on) every attempt. `progress` sees (items sent,
     /// items in all).
     pub fn upload_mission(
         &mut self,

@@ -3,7 +3,7 @@
 
 use ferrolink_runtime::mavlink::service::messages::{
     MavCmd, MavFrame, MavMissionResult, MavMissionType, Message, MissionAck, MissionCount,
-    MissionItemInt, MissionRequest,
+    MissionItemInt, MissionRequest, MissionRequestInt,
 };
 use ferrolink_runtime::mavlink::service::mission::{
     Client, ClientConfig, Event, Item, Items, Server, ServerConfig, Store,
@@ -323,6 +323,52 @@ fn a_lost_final_ack_is_sent_again() {
         vehicle.store.commits, 1,
         "the repeated last item was not taken twice"
     );
+}
+
+/// A server stuck on one item asks for it again and again. Every request is answered, but the
+/// upload ends, as silence would end it, once as many requests as silence allows brought
+/// nothing further; a server that moves on, however slowly, is followed to the end.
+#[test]
+fn a_server_stuck_on_one_item_ends_the_upload() {
+    let request = |seq| {
+        Message::MissionRequestInt(MissionRequestInt {
+            target_system: 255,
+            target_component: 190,
+            seq,
+            mission_type: MavMissionType::Mission,
+        })
+    };
+    for moves_on in [false, true] {
+        let (mut gcs, _) = pair();
+        gcs.items = List(plan(40, 0));
+        gcs.client.upload(MavMissionType::Mission, 40).unwrap();
+        assert!(matches!(
+            gcs.poll_transmit(0),
+            Some(Message::MissionCount(_))
+        ));
+        let mut answered = 0;
+        let mut now = 0;
+        for i in 0..39u16 {
+            now += 500_000;
+            gcs.handle(now, VEHICLE, &request(if moves_on { i } else { 1 }));
+            match gcs.poll_transmit(now) {
+                Some(Message::MissionItemInt(_)) => answered += 1,
+                other => {
+                    assert!(other.is_none(), "{other:?}");
+                    break;
+                }
+            }
+        }
+        if moves_on {
+            assert!(gcs.events.is_empty() && answered == 39);
+        } else {
+            // 1.5 s × 6 rounds and 12 requests: the request 9 s after the first ends it,
+            // unanswered.
+            assert_eq!(gcs.events, [Event::Uploaded(None)]);
+            assert_eq!(answered, 18);
+            assert!(gcs.client.is_idle());
+        }
+    }
 }
 
 #[test]

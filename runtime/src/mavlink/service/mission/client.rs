@@ -88,6 +88,17 @@ pub struct Client {
     event: Option<Event>,
     /// The final ACK of a download, to send.
     ack_due: bool,
+    /// An upload's progress: the highest item the server asked for, since when, and how many
+    /// requests came since without a higher one.
+    progress: Option<Progress>,
+}
+
+/// How far a server has taken an upload.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Progress {
+    highest: u16,
+    since_us: u64,
+    requests: u8,
 }
 
 impl Client {
@@ -106,6 +117,7 @@ impl Client {
             rtt: Rtt::default(),
             event: None,
             ack_due: false,
+            progress: None,
         }
     }
 
@@ -129,6 +141,7 @@ impl Client {
         self.deadline = None;
         self.silent_since = None;
         self.due_item = None;
+        self.progress = None;
         Ok(())
     }
 
@@ -188,6 +201,29 @@ impl Client {
         self.silent_since = Some(now_us);
     }
 
+    /// Whether a request for `seq` ends an upload the server no longer takes forward: one that
+    /// asks again and again without ever asking past the highest item yet, for as long and as
+    /// many times as silence would take to give up ([`Retry::exhausted`]). Each request
+    /// answers, so without this a server stuck on one item would hold the upload forever.
+    fn stalled(&mut self, seq: u16, now_us: u64) -> bool {
+        match &mut self.progress {
+            Some(p) if seq <= p.highest => {
+                p.requests = p.requests.saturating_add(1);
+                self.config
+                    .retry
+                    .exhausted(now_us.saturating_sub(p.since_us), p.requests)
+            }
+            _ => {
+                self.progress = Some(Progress {
+                    highest: seq,
+                    since_us: now_us,
+                    requests: 0,
+                });
+                false
+            }
+        }
+    }
+
     fn is_target(&self, from: Address) -> bool {
         from.system == self.target.system
             && (self.target.component == 0 || from.component == self.target.component)
@@ -227,6 +263,10 @@ impl Client {
         ) = (self.op, request)
         {
             if mission_type == kind && own.is_addressed_by(ts, tc) && seq < count {
+                if self.stalled(seq, now_us) {
+                    self.finish(Event::Uploaded(None));
+                    return;
+                }
                 self.answered(now_us);
                 self.due_item = Some(seq);
                 self.op = Op::Upload {
