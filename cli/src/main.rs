@@ -105,6 +105,8 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    #[cfg(feature = "zenoh")]
+    ferrolink_zenoh::one_worker_thread();
     let cli = Cli::parse();
     match run(cli.command) {
         Ok(code) => code,

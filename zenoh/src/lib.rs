@@ -27,6 +27,6 @@ pub mod ndlcom;
 mod session;
 pub mod uri;
 
-pub use session::Running;
+pub use session::{one_worker_thread, Running, ONE_WORKER_THREAD};
 
 pub use uri::{Encoding, Mode, ZenohUri, SCHEME};

@@ -36,7 +36,7 @@ use ferrolink_runtime::mavlink::{AnyFrame, MessageMeta};
 use ferrolink_traffic::{FrameDefaults, PayloadDecoder};
 use zenoh::Wait;
 
-use crate::session::{Rejections, Running, POLL};
+use crate::session::{Rejections, Running};
 use crate::uri::{Encoding, ZenohUri};
 
 /// The sender of a JSON command that names none (a ground station's ids).
@@ -86,40 +86,29 @@ pub fn open(
     let mut running = Running::open(uri)?;
     let name = uri.to_string();
     let root = uri.mavlink_root();
-    let subscriber = running.subscribe_remote(format!("{root}/**"))?;
     let zid = running.session().zid().to_string();
     let fleet_key = format!("{}/{zid}", uri.fleet_root());
-    let queryable = running
-        .session()
-        .declare_queryable(&fleet_key)
-        .wait()
-        .map_err(|e| running.error(e))?;
-
     let sender = publisher(running.session(), &root, uri.encoding, dictionaries.clone());
     let peer = running.report_up(index, sender, &sink)?;
     let mut frames = FrameMaker::new(dictionaries);
-    running.spawn("zenoh-rx", move || {
-        let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {
-            return true;
-        };
+    let mut listened = true;
+    running.on_remote_sample(format!("{root}/**"), move |sample| {
         let key = sample.key_expr().as_str();
-        let Some(frame) = frames.frame(&root, key, &sample.payload().to_bytes()) else {
-            return true;
-        };
-        sink(Event::Rx {
-            peer,
-            bytes: &frame,
-            at: Instant::now(),
-        })
-    })?;
-    running.spawn("zenoh-fleet", move || {
-        if let Ok(Some(query)) = queryable.recv_timeout(POLL) {
-            let mut answer = status();
-            answer["router"] = zid.clone().into();
-            answer["endpoint"] = name.clone().into();
-            let _ = query.reply(&fleet_key, answer.to_string()).wait();
+        if let Some(frame) = frames.frame(&root, key, &sample.payload().to_bytes()) {
+            listened = listened
+                && sink(Event::Rx {
+                    peer,
+                    bytes: &frame,
+                    at: Instant::now(),
+                });
         }
-        true
+    })?;
+    let answer_key = fleet_key.clone();
+    running.on_query(&fleet_key, move |query| {
+        let mut answer = status();
+        answer["router"] = zid.clone().into();
+        answer["endpoint"] = name.clone().into();
+        let _ = query.reply(&answer_key, answer.to_string()).wait();
     })?;
     Ok(running)
 }

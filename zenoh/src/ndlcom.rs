@@ -21,7 +21,7 @@ use ferrolink_runtime::ndlcom::{self, parser::Parser, storage_len, Header, FLAG}
 use ferrolink_traffic::PayloadDecoder;
 use zenoh::Wait;
 
-use crate::session::{Rejections, Running, POLL};
+use crate::session::{Rejections, Running};
 use crate::uri::{Encoding, ZenohUri};
 
 type FrameParser = Parser<[u8; storage_len(ndlcom::MAX_PAYLOAD_LEN)]>;
@@ -107,14 +107,11 @@ pub fn open(
 ) -> io::Result<Running> {
     let mut running = Running::open(uri)?;
     let root = format!("{}/ndlcom", uri.prefix);
-    let subscriber = running.subscribe_remote(format!("{root}/**"))?;
     let sender = publisher(running.session(), &root, uri.encoding, decoder.clone());
     let peer = running.report_up(index, sender, &sink)?;
     let mut rejected = Rejections::default();
-    running.spawn("zenoh-ndlcom", move || {
-        let Ok(Some(sample)) = subscriber.recv_timeout(POLL) else {
-            return true;
-        };
+    let mut listened = true;
+    running.on_remote_sample(format!("{root}/**"), move |sample| {
         let bytes = sample.payload().to_bytes();
         let frame = if bytes.first() == Some(&FLAG) {
             Ok(bytes.to_vec())
@@ -122,15 +119,15 @@ pub fn open(
             frame_from_json(&decoder, &bytes)
         };
         match frame {
-            Ok(frame) => sink(Event::Rx {
-                peer,
-                bytes: &frame,
-                at: Instant::now(),
-            }),
-            Err(e) => {
-                rejected.note(sample.key_expr().as_str(), &e);
-                true
+            Ok(frame) => {
+                listened = listened
+                    && sink(Event::Rx {
+                        peer,
+                        bytes: &frame,
+                        at: Instant::now(),
+                    });
             }
+            Err(e) => rejected.note(sample.key_expr().as_str(), &e),
         }
     })?;
     Ok(running)

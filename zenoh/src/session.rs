@@ -1,32 +1,50 @@
 //! What the Zenoh endpoints share: a session for a URI that closes when the endpoint is dropped,
-//! subscribers that take other sessions' samples only, reader threads, and the note on stderr
-//! about samples that carried nothing usable.
+//! subscribers that take other sessions' samples only, and the note on stderr about samples that
+//! carried nothing usable.
 
 use std::io;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::thread;
 use std::time::{Duration, Instant};
 
 use ferrolink_io::link::{self, Event, PeerId, Sender};
 use zenoh::handlers::FifoChannelHandler;
 use zenoh::pubsub::Subscriber;
+use zenoh::query::{Query, Queryable};
 use zenoh::sample::{Locality, Sample};
 use zenoh::Wait;
 
 use crate::uri::ZenohUri;
 
-/// How long a reader waits for a sample before it looks whether it should stop.
-pub(crate) const POLL: Duration = Duration::from_millis(200);
+/// What [`one_worker_thread`] sets `ZENOH_RUNTIME` to: every one of Zenoh's runtimes hands its
+/// tasks over to the sending one, which has one worker thread.
+pub const ONE_WORKER_THREAD: &str =
+    "(rx: (handover: tx), acc: (handover: tx), app: (handover: tx), net: (handover: tx))";
 
-/// A session and the threads that read from it; dropping it stops them (within [`POLL`]) and
+/// Runs all of Zenoh's work (receiving, sending, accepting, routing) on one worker thread of its
+/// own, unless `ZENOH_RUNTIME` already says how: by default Zenoh keeps five runtimes and six
+/// threads, and a frame through a Zenoh link wakes three of them in turn. On one thread, a
+/// frame from Zenoh is read, decoded and routed with no thread handing it to another.
+///
+/// Zenoh reads the variable when it first starts, so call this at the start of `main`, before
+/// any thread is started.
+pub fn one_worker_thread() {
+    const VAR: &str = "ZENOH_RUNTIME";
+    if std::env::var_os(VAR).is_none() {
+        std::env::set_var(VAR, ONE_WORKER_THREAD);
+    }
+}
+
+/// A session and the callbacks that take what arrives on it; dropping it undeclares them and
 /// closes the session.
+///
+/// Samples and queries are handled in the callbacks, on Zenoh's own receiving task: a frame from
+/// Zenoh is routed there, with no thread of ours to wake for it and none that wakes to look
+/// whether it should stop.
 #[derive(Debug)]
 pub struct Running {
     session: zenoh::Session,
     name: String,
-    stop: Arc<AtomicBool>,
-    threads: Vec<thread::JoinHandle<()>>,
+    subscribers: Vec<Subscriber<()>>,
+    queryables: Vec<Queryable<()>>,
 }
 
 impl Running {
@@ -40,8 +58,8 @@ impl Running {
         Ok(Running {
             session,
             name,
-            stop: Arc::new(AtomicBool::new(false)),
-            threads: Vec::new(),
+            subscribers: Vec::new(),
+            queryables: Vec::new(),
         })
     }
 
@@ -89,31 +107,48 @@ impl Running {
             .map_err(|e| self.error(e))
     }
 
-    /// Calls `step` on a thread named `name` until the endpoint is dropped or `step` says
-    /// `false`; `step` waits at most [`POLL`] for something to do.
-    pub(crate) fn spawn(
+    /// Hands every sample other sessions put on `key` to `on_sample`, one at a time, until the
+    /// endpoint is dropped.
+    pub(crate) fn on_remote_sample(
         &mut self,
-        name: &str,
-        mut step: impl FnMut() -> bool + Send + 'static,
+        key: String,
+        on_sample: impl FnMut(Sample) + Send + Sync + 'static,
     ) -> io::Result<()> {
-        let stop = self.stop.clone();
-        let thread = thread::Builder::new().name(name.into()).spawn(move || {
-            while !stop.load(Ordering::Relaxed) {
-                if !step() {
-                    return;
-                }
-            }
-        })?;
-        self.threads.push(thread);
+        let subscriber = self
+            .session
+            .declare_subscriber(key)
+            .allowed_origin(Locality::Remote)
+            .callback_mut(on_sample)
+            .wait()
+            .map_err(|e| self.error(e))?;
+        self.subscribers.push(subscriber);
+        Ok(())
+    }
+
+    /// Hands every query on `key` to `on_query` until the endpoint is dropped.
+    pub(crate) fn on_query(
+        &mut self,
+        key: &str,
+        on_query: impl Fn(Query) + Send + Sync + 'static,
+    ) -> io::Result<()> {
+        let queryable = self
+            .session
+            .declare_queryable(key.to_owned())
+            .callback(on_query)
+            .wait()
+            .map_err(|e| self.error(e))?;
+        self.queryables.push(queryable);
         Ok(())
     }
 }
 
 impl Drop for Running {
     fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        for t in self.threads.drain(..) {
-            let _ = t.join();
+        for s in self.subscribers.drain(..) {
+            let _ = s.undeclare().wait();
+        }
+        for q in self.queryables.drain(..) {
+            let _ = q.undeclare().wait();
         }
         let _ = self.session.close().wait();
     }
