@@ -50,6 +50,11 @@ pub enum Command {
         /// What a full output queue drops [default: oldest].
         #[arg(long, value_name = "oldest|newest")]
         queue_drop: Option<QueueDrop>,
+        /// Send each frame to a UDP peer in a datagram of its own, for a peer that reads one
+        /// frame a datagram. By default, frames for one UDP peer that leave together share
+        /// datagrams of up to 1200 bytes, each frame whole.
+        #[arg(long)]
+        one_frame_per_datagram: bool,
         /// Drop frames whose exact bytes came within MS milliseconds (redundant links), on the
         /// endpoints given on the command line.
         #[arg(long, value_name = "MS", default_value_t = 0)]
@@ -255,6 +260,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             peer_expiry,
             queue_bytes,
             queue_drop,
+            one_frame_per_datagram,
             dedup_ms,
             config,
             endpoints,
@@ -292,6 +298,8 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                     _ => seconds(peer_expiry)?,
                 }),
                 queue: Some(output_queue(file.queue, queue_bytes, queue_drop)?),
+                one_frame_per_datagram: one_frame_per_datagram
+                    || file.one_frame_per_datagram.unwrap_or(false),
             };
             let (stop, reload) = signals(config_path, given)?;
             router::run_reloading(&config, attached, &stop, reload)?;

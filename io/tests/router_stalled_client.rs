@@ -92,14 +92,21 @@ fn a_client_that_never_reads_slows_no_one() {
                 .expect("timeout");
             thread::spawn(move || {
                 let mut latencies_us = Vec::new();
-                let mut buf = [0u8; 512];
+                let mut buf = vec![0u8; 65536];
                 while let Ok(n) = socket.recv(&mut buf) {
-                    let Ok(sent) = <[u8; 8]>::try_from(buf.get(10..18).unwrap_or(&[])) else {
-                        continue;
-                    };
-                    if n > 100 {
-                        let now = epoch.elapsed().as_micros() as u64;
-                        latencies_us.push(now.saturating_sub(u64::from_le_bytes(sent)));
+                    let now = epoch.elapsed().as_micros() as u64;
+                    // The router packs the frames of a burst into shared datagrams: each is
+                    // a MAVLink 2 frame, unsigned, of 12 bytes beside its payload.
+                    let mut rest = &buf[..n];
+                    while let Some(&len) = rest.get(1) {
+                        let (frame, tail) = rest.split_at((12 + usize::from(len)).min(rest.len()));
+                        rest = tail;
+                        let Ok(sent) = <[u8; 8]>::try_from(frame.get(10..18).unwrap_or(&[])) else {
+                            continue;
+                        };
+                        if frame.len() > 100 {
+                            latencies_us.push(now.saturating_sub(u64::from_le_bytes(sent)));
+                        }
                     }
                 }
                 latencies_us

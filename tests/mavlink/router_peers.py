@@ -253,6 +253,7 @@ class RawUdpNode(RawNode):
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind((HOST, 0))
         self.sock.setblocking(False)
+        self.datagrams = []  # (bytes, frames) of each datagram received
 
     def write(self, data):
         self.sock.sendto(data, self.dest)
@@ -265,6 +266,7 @@ class RawUdpNode(RawNode):
                 return
             frames, skipped, tail = split_frames(data)
             self.skipped += skipped + len(tail)
+            self.datagrams.append((len(data), len(frames)))
             self.inbox.extend(rx_from_frame(self.decoder, f) for f in frames)
 
     def close(self):
@@ -975,6 +977,54 @@ def check_a_datagram_is_a_boundary(h):
     h.deliver("COMMAND_LONG %d cut across two datagrams" % cut, is_command(cut), [])
 
 
+def burst_through(h, extra):
+    """40 COMMAND_LONGs in one datagram into endpoint A; a raw socket on B and pymavlink on C
+    must each get all of them, in order.  Returns B's datagrams since the burst, (bytes, frames)
+    each."""
+    a, b, c = free_ports(socket.SOCK_DGRAM, 3)
+    h.start_router([udpin(a), udpin(b), udpin(c)], extra)
+    src = h.raw("source", a, 1, 1, mavlink.MAV_TYPE_QUADROTOR)
+    raw = h.raw("raw_gcs", b, 255, 190, mavlink.MAV_TYPE_GCS)
+    pym = h.mav("pymavlink_gcs", udp_peer(c), 254, 190, mavlink.MAV_TYPE_GCS)
+    h.mesh([src, raw, pym])
+    tags = [h.next_tag() for _ in range(40)]
+    frames = []
+    for tag in tags:
+        msg = src.encoder.command_long_encode(0, 0, CMD, 0, float(tag), 0, 0, 0, 0, 0, 0)
+        frames.append(bytes(msg.pack(src.encoder)))
+        src.encoder.seq = (src.encoder.seq + 1) % 256
+    raw.poll()
+    before = len(raw.datagrams)
+    src.send_raw(b"".join(frames), frame=False)
+    src.sent.extend(frames)
+    for tag in tags:
+        h.deliver("COMMAND_LONG %d of a burst" % tag, is_command(tag), [raw, pym])
+    for node in (raw, pym):
+        got = [int(rx.msg.param1) for rx in node.received(
+            lambda rx: rx.type == "COMMAND_LONG" and int(rx.msg.param1) in tags)]
+        if got != tags:
+            raise CheckFailed("%s got the burst as %s" % (node.name, got))
+    return [d for d in raw.datagrams[before:] if d[1] > 0], sum(map(len, frames))
+
+
+def check_frames_that_leave_together_share_datagrams(h):
+    """Frames a read sends to one UDP peer go out in as few datagrams of at most 1200 bytes
+    as hold them, each frame whole (the checks above fail on any cut frame); pymavlink reads
+    them all."""
+    datagrams, total = burst_through(h, [])
+    want = -(-total // 1200)
+    if any(n > 1200 for n, _ in datagrams) or not want <= len(datagrams) <= want + 1:
+        raise CheckFailed("%d bytes of frames came in datagrams of %s (bytes, frames), want %d "
+                          "of at most 1200 bytes" % (total, datagrams, want))
+
+
+def check_one_frame_per_datagram(h):
+    """--one-frame-per-datagram: each frame in a datagram of its own."""
+    datagrams, _ = burst_through(h, ["--one-frame-per-datagram"])
+    if len(datagrams) != 40 or any(f != 1 for _, f in datagrams):
+        raise CheckFailed("40 frames came in datagrams of %s (bytes, frames)" % datagrams)
+
+
 def check_serial(h):
     """A device on a serial line (a pty) and a GCS on UDP, both ways."""
     (port,) = free_ports(socket.SOCK_DGRAM, 1)
@@ -1001,6 +1051,9 @@ CHECKS = [
     ("tcpin_many", check_tcpin_many),
     ("several_frames_in_one_datagram", check_several_frames_in_one_datagram),
     ("a_datagram_is_a_boundary", check_a_datagram_is_a_boundary),
+    ("frames_that_leave_together_share_datagrams",
+     check_frames_that_leave_together_share_datagrams),
+    ("one_frame_per_datagram", check_one_frame_per_datagram),
     ("serial", check_serial),
     ("tlog", check_tlog),
 ]

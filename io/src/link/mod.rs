@@ -51,6 +51,7 @@ use crate::{is_timeout, LinkReader, LinkWriter};
 mod batch;
 mod queue;
 
+pub use batch::PACKED_DATAGRAM;
 use queue::Queue;
 pub use queue::{OutputQueue, Overflow, DAEMON_QUEUE, DEFAULT_QUEUE_BYTES};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -185,7 +186,7 @@ type WriteFn = dyn Fn(&[u8]) -> io::Result<()> + Send + Sync;
 
 #[derive(Clone)]
 enum SenderKind {
-    Udp(Arc<UdpSocket>, SocketAddr),
+    Udp(batch::Route),
     /// A stream, written by the caller or, with a queue, by the queue's writer thread.
     Stream(Arc<Mutex<Box<dyn LinkWriter>>>, Option<Arc<Queue>>),
     Fn(Arc<WriteFn>),
@@ -194,7 +195,11 @@ enum SenderKind {
 impl fmt::Debug for SenderKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            SenderKind::Udp(socket, to) => f.debug_tuple("Udp").field(socket).field(to).finish(),
+            SenderKind::Udp(route) => f
+                .debug_tuple("Udp")
+                .field(&route.socket)
+                .field(&route.to)
+                .finish(),
             SenderKind::Stream(..) => f.write_str("Stream"),
             SenderKind::Fn(_) => f.write_str("Fn"),
         }
@@ -212,9 +217,9 @@ impl Sender {
     /// waits (see [`Overflow`]).
     pub fn send(&self, bytes: &[u8]) -> io::Result<()> {
         match &self.0 {
-            SenderKind::Udp(socket, to) => {
-                if !batch::defer(socket, *to, bytes) {
-                    socket.send_to(bytes, to)?;
+            SenderKind::Udp(route) => {
+                if !batch::defer(route, bytes) {
+                    route.socket.send_to(bytes, route.to)?;
                 }
                 Ok(())
             }
@@ -262,6 +267,12 @@ pub struct Options {
     pub peer_expiry: Duration,
     /// How writes to a stream peer (TCP, serial, pty) wait or queue.
     pub queue: OutputQueue,
+    /// The largest datagram that writes to one UDP peer may share: what is written to a peer
+    /// while one read is handled goes out in as few datagrams of at most this many bytes as
+    /// hold it, each write whole and in order (a write longer than this goes alone). 0, the
+    /// default, sends each write in a datagram of its own, for protocols whose peers read one
+    /// frame a datagram. See [`PACKED_DATAGRAM`].
+    pub pack_up_to: usize,
 }
 
 impl Default for Options {
@@ -269,6 +280,7 @@ impl Default for Options {
         Self {
             peer_expiry: DEFAULT_PEER_EXPIRY,
             queue: OutputQueue::default(),
+            pack_up_to: 0,
         }
     }
 }
@@ -279,6 +291,7 @@ pub struct Handle {
     stop: Arc<AtomicBool>,
     local: Option<SocketAddr>,
     udp: Option<Arc<UdpSocket>>,
+    pack_up_to: usize,
 }
 
 /// Where a datagram wakes a UDP reader blocked on a socket bound to `local`.
@@ -303,7 +316,11 @@ impl Handle {
     /// for other endpoints.
     pub fn sender_to(&self, to: SocketAddr) -> Option<Sender> {
         let socket = self.udp.clone()?;
-        Some(Sender(SenderKind::Udp(socket, to)))
+        Some(Sender(SenderKind::Udp(batch::Route {
+            socket,
+            to,
+            pack_up_to: self.pack_up_to,
+        })))
     }
 }
 
@@ -355,7 +372,7 @@ pub fn open(
             let local = socket.local_addr().ok();
             spawn(&uri, {
                 let stop = stop.clone();
-                move || udp_in(index, &name, &socket, options.peer_expiry, &stop, &events)
+                move || udp_in(index, &name, &socket, options, &stop, &events)
             })?;
             local
         }
@@ -381,7 +398,11 @@ pub fn open(
                 endpoint: index,
                 peer,
                 name,
-                sender: Sender(SenderKind::Udp(socket.clone(), to)),
+                sender: Sender(SenderKind::Udp(batch::Route {
+                    socket: socket.clone(),
+                    to,
+                    pack_up_to: options.pack_up_to,
+                })),
             };
             if !events(up) {
                 return Err(io::Error::other(format!(
@@ -436,7 +457,12 @@ pub fn open(
             None
         }
     };
-    Ok(Handle { stop, local, udp })
+    Ok(Handle {
+        stop,
+        local,
+        udp,
+        pack_up_to: options.pack_up_to,
+    })
 }
 
 fn spawn(name: &str, f: impl FnOnce() + Send + 'static) -> io::Result<()> {
@@ -458,10 +484,11 @@ fn udp_in(
     index: usize,
     name: &str,
     socket: &Arc<UdpSocket>,
-    expiry: Duration,
+    options: Options,
     stop: &AtomicBool,
     events: &Sink,
 ) {
+    let expiry = options.peer_expiry;
     let mut peers: HashMap<SocketAddr, (PeerId, Instant)> = HashMap::new();
     // When the quietest peer would expire: the only reason to wake without a datagram.
     let mut sweep_at: Option<Instant> = None;
@@ -530,7 +557,11 @@ fn udp_in(
                             endpoint: index,
                             peer,
                             name: format!("{name} <- {from}"),
-                            sender: Sender(SenderKind::Udp(Arc::clone(socket), from)),
+                            sender: Sender(SenderKind::Udp(batch::Route {
+                                socket: Arc::clone(socket),
+                                to: from,
+                                pack_up_to: options.pack_up_to,
+                            })),
                         };
                         if !events(up) {
                             return false;

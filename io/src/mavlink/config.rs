@@ -9,6 +9,7 @@
 //! peer_expiry = 10.0              # seconds
 //! queue_bytes = 65536             # a TCP, serial or pty peer's output queue, in bytes
 //! queue_drop = "oldest"           # what a full queue drops: "oldest" or "newest"
+//! one_frame_per_datagram = false  # true: never pack frames for a UDP peer into one datagram
 //! dialects = ["ardupilotmega.xml"]
 //!
 //! [[endpoint]]
@@ -79,6 +80,8 @@ pub struct FileConfig {
     pub peer_expiry: Option<Duration>,
     /// The output queue of stream peers, when the file sets it.
     pub queue: Option<OutputQueue>,
+    /// Whether each frame to a UDP peer goes in a datagram of its own, when the file says.
+    pub one_frame_per_datagram: Option<bool>,
     /// Problems that did not stop the file from being read (unknown keys).
     pub warnings: Vec<String>,
 }
@@ -132,6 +135,7 @@ struct TomlFile {
     peer_expiry: Option<f64>,
     queue_bytes: Option<usize>,
     queue_drop: Option<QueueDrop>,
+    one_frame_per_datagram: Option<bool>,
     #[serde(default)]
     endpoint: Vec<TomlEndpoint>,
 }
@@ -313,6 +317,7 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
         stats_json: file.stats_json,
         peer_expiry,
         queue: queue(file.queue_bytes, file.queue_drop)?,
+        one_frame_per_datagram: file.one_frame_per_datagram,
         warnings: Vec::new(),
     })
 }

@@ -52,6 +52,12 @@ pub struct Config {
     /// peer that does not keep up loses its own frames, counted as its `tx_dropped`, and never
     /// slows another.
     pub queue: Option<OutputQueue>,
+    /// Send each frame to a UDP peer in a datagram of its own. By default, the frames a UDP
+    /// peer is sent while one read is handled share datagrams of up to
+    /// [`link::PACKED_DATAGRAM`] bytes, each frame whole: MAVLink's UDP readers (pymavlink,
+    /// MAVSDK, QGroundControl, mavlink-router, the autopilots) parse a datagram as a run of
+    /// frames.
+    pub one_frame_per_datagram: bool,
 }
 
 /// An endpoint the daemon does not open from a [`link`] URI.
@@ -440,6 +446,11 @@ pub fn run_reloading(
     let options = link::Options {
         peer_expiry: config.peer_expiry.unwrap_or(link::DEFAULT_PEER_EXPIRY),
         queue,
+        pack_up_to: if config.one_frame_per_datagram {
+            0
+        } else {
+            link::PACKED_DATAGRAM
+        },
     };
     let tlog = match &config.tlog {
         Some(path) => Some(tlog::Writer::new(BufWriter::new(create("--tlog", path)?))),
