@@ -39,7 +39,7 @@
 //! up every 200 ms to notice a shutdown. The sink runs on the reader's thread, so a router can
 //! route a datagram the moment it is read, with no hand-over between threads; the UDP datagrams
 //! it sends while handling one read go out together, one `sendmmsg` per socket, when it
-//! returns.
+//! returns; with [`Options::pack_up_to`] set, those bound for one address share datagrams.
 
 use std::collections::HashMap;
 use std::fmt;

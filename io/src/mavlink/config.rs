@@ -9,7 +9,7 @@
 //! peer_expiry = 10.0              # seconds
 //! queue_bytes = 65536             # a TCP, serial or pty peer's output queue, in bytes
 //! queue_drop = "oldest"           # what a full queue drops: "oldest" or "newest"
-//! one_frame_per_datagram = false  # true: never pack frames for a UDP peer into one datagram
+//! one_frame_per_datagram = false  # true: each frame to a UDP peer in a datagram of its own
 //! dialects = ["ardupilotmega.xml"]
 //!
 //! [[endpoint]]
