@@ -76,6 +76,22 @@ fn toml_output_queues() {
 }
 
 #[test]
+fn toml_one_frame_per_datagram() {
+    let packing = |text: &str| from_toml(text, Path::new(".")).map(|c| c.one_frame_per_datagram);
+    assert_eq!(
+        packing(""),
+        Ok(None),
+        "the router's default (packed) applies"
+    );
+    assert_eq!(packing("one_frame_per_datagram = true\n"), Ok(Some(true)));
+    assert_eq!(packing("one_frame_per_datagram = false\n"), Ok(Some(false)));
+    insta::assert_snapshot!(
+        packing("one_frame_per_datagram = 1\n").unwrap_err().to_string(),
+        @"1:26: invalid type: integer `1`, expected a boolean"
+    );
+}
+
+#[test]
 fn toml_errors_say_where() {
     let err = |text: &str| from_toml(text, Path::new(".")).unwrap_err().to_string();
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nbogus = 1\n"), @"3:1: unknown field `bogus`, expected one of `uri`, `group`, `dedup_ms`, `max_delay_ms`, `signing_key`, `drop_unknown_ids`, `allow_msg_in`, `block_msg_in`, `allow_msg_out`, `block_msg_out`, `allow_src_sys_in`, `block_src_sys_in`, `allow_src_sys_out`, `block_src_sys_out`, `allow_src_comp_in`, `block_src_comp_in`, `allow_src_comp_out`, `block_src_comp_out`");

@@ -207,6 +207,16 @@ impl fmt::Debug for SenderKind {
 }
 
 impl Sender {
+    /// A sender from a UDP socket to `to`, whose writes in one batch may share datagrams of up
+    /// to `pack_up_to` bytes (see [`Options::pack_up_to`]).
+    fn udp(socket: Arc<UdpSocket>, to: SocketAddr, pack_up_to: usize) -> Sender {
+        Sender(SenderKind::Udp(batch::Route {
+            socket,
+            to,
+            pack_up_to,
+        }))
+    }
+
     /// A sender that hands every write to `write`: for endpoints opened outside this module.
     pub fn from_fn(write: impl Fn(&[u8]) -> io::Result<()> + Send + Sync + 'static) -> Sender {
         Sender(SenderKind::Fn(Arc::new(write)))
@@ -316,11 +326,7 @@ impl Handle {
     /// for other endpoints.
     pub fn sender_to(&self, to: SocketAddr) -> Option<Sender> {
         let socket = self.udp.clone()?;
-        Some(Sender(SenderKind::Udp(batch::Route {
-            socket,
-            to,
-            pack_up_to: self.pack_up_to,
-        })))
+        Some(Sender::udp(socket, to, self.pack_up_to))
     }
 }
 
@@ -398,11 +404,7 @@ pub fn open(
                 endpoint: index,
                 peer,
                 name,
-                sender: Sender(SenderKind::Udp(batch::Route {
-                    socket: socket.clone(),
-                    to,
-                    pack_up_to: options.pack_up_to,
-                })),
+                sender: Sender::udp(socket.clone(), to, options.pack_up_to),
             };
             if !events(up) {
                 return Err(io::Error::other(format!(
@@ -557,11 +559,7 @@ fn udp_in(
                             endpoint: index,
                             peer,
                             name: format!("{name} <- {from}"),
-                            sender: Sender(SenderKind::Udp(batch::Route {
-                                socket: Arc::clone(socket),
-                                to: from,
-                                pack_up_to: options.pack_up_to,
-                            })),
+                            sender: Sender::udp(Arc::clone(socket), from, options.pack_up_to),
                         };
                         if !events(up) {
                             return false;

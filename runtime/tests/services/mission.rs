@@ -371,6 +371,54 @@ fn a_server_stuck_on_one_item_ends_the_upload() {
     }
 }
 
+/// A server that stops asking in the middle of an upload (its retries ran out, its ACK saying
+/// so was lost) ends the upload once it has been silent as long as silence takes to give up,
+/// 9 s with the defaults; the client sends nothing meanwhile, since the server drives.
+#[test]
+fn a_server_that_goes_silent_mid_upload_ends_it() {
+    let (mut gcs, _) = pair();
+    gcs.items = List(plan(40, 0));
+    gcs.client.upload(MavMissionType::Mission, 40).unwrap();
+    assert!(matches!(
+        gcs.poll_transmit(0),
+        Some(Message::MissionCount(_))
+    ));
+    let asked_at = 100_000;
+    gcs.handle(
+        asked_at,
+        VEHICLE,
+        &Message::MissionRequestInt(MissionRequestInt {
+            target_system: 255,
+            target_component: 190,
+            seq: 0,
+            mission_type: MavMissionType::Mission,
+        }),
+    );
+    assert!(matches!(
+        gcs.poll_transmit(asked_at),
+        Some(Message::MissionItemInt(_))
+    ));
+    let mut now = asked_at;
+    let mut wakes = 0;
+    while gcs.events.is_empty() {
+        now = gcs
+            .poll_timeout()
+            .expect("a deadline while the upload runs")
+            .max(now + 1);
+        wakes += 1;
+        assert!(wakes < 100, "still waiting at {now} µs");
+        assert_eq!(
+            gcs.poll_transmit(now),
+            None,
+            "the server drives; nothing to send"
+        );
+    }
+    assert_eq!(gcs.events, [Event::Uploaded(None)]);
+    // Woken at the end of each wait (1.5 s by default): it ends at the first after 9 s.
+    assert!((9_000_000..10_500_000).contains(&(now - asked_at)), "{now}");
+    assert!(gcs.client.is_idle());
+}
+
 #[test]
 fn invalid_sequence_mid_upload_does_not_end_it() {
     let (mut gcs, _) = pair();

@@ -71,7 +71,15 @@ impl Retry {
     /// not measured a round trip yet still asks `2 × (retries + 1)` times before it gives up.
     pub fn exhausted(&self, silent_us: u64, tries: u8) -> bool {
         let rounds = u64::from(self.retries) + 1;
-        silent_us >= self.timeout_us.saturating_mul(rounds) && u64::from(tries) >= 2 * rounds
+        self.outlasted(silent_us) && u64::from(tries) >= 2 * rounds
+    }
+
+    /// Whether a peer that drives an exchange and has gone silent for `silent_us` has given
+    /// it up: as long as `retries + 1` of the longest waits, the time silence takes to give up
+    /// when this side sends nothing to count.
+    pub fn outlasted(&self, silent_us: u64) -> bool {
+        let rounds = u64::from(self.retries) + 1;
+        silent_us >= self.timeout_us.saturating_mul(rounds)
     }
 }
 

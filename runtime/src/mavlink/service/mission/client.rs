@@ -423,6 +423,16 @@ impl Client {
                         .get(count - 1)
                         .unwrap_or_default()
                         .to_int(count - 1, to, kind)
+                } else if self
+                    .config
+                    .retry
+                    .outlasted(now_us.saturating_sub(silent_since))
+                {
+                    // Silent since its last request for as long as silence takes to give up:
+                    // the server dropped the transfer (its own retries ran out, or its ACK
+                    // saying so was lost).
+                    self.finish(Event::Uploaded(None));
+                    return None;
                 } else {
                     // The server drives the transfer and retries on its own: wait for its next
                     // request, as long as its own retries could take.
