@@ -159,16 +159,24 @@ class Fleet:
                              mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         return m
 
-    def wait_for_system(self, m, sysid, timeout=15):
-        """Heartbeats until system `sysid` was heard (so both routers know the way)."""
+    def wait_for_system(self, m, sysid, timeout=30):
+        """Heartbeats until system `sysid` was heard (so both routers know the way). The
+        wait covers two routers, two Python vehicles and a Zenoh connection starting on a
+        machine that runs other tests beside them (a QEMU firmware among them)."""
         deadline = time.time() + timeout
+        heard = set()
         while time.time() < deadline:
             m.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS,
                                  mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
             msg = m.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
-            if msg is not None and msg.get_srcSystem() == sysid:
-                return
-        raise CheckFailed("no HEARTBEAT of system %d reached the ground station" % sysid)
+            if msg is not None:
+                heard.add(msg.get_srcSystem())
+                if msg.get_srcSystem() == sysid:
+                    return
+        logs = "; ".join("%s: %s" % (os.path.basename(p.log), p.text()[-300:].strip())
+                         for p in self.procs)
+        raise CheckFailed("no HEARTBEAT of system %d reached the ground station in %d s "
+                          "(heard %s); %s" % (sysid, timeout, sorted(heard), logs))
 
     def stop(self):
         for p in reversed(self.procs):
