@@ -77,11 +77,8 @@ pub(crate) fn defer(route: &Route, bytes: &[u8]) -> bool {
 /// Sends what a batch held back, in order per address. A datagram the kernel refuses is lost,
 /// as a UDP datagram may be.
 fn flush(mut outbox: Outbox) {
-    // Group by socket and address, keeping the order of the writes to each address.
-    outbox
-        .sends
-        .sort_by_key(|(route, _)| (Arc::as_ptr(&route.socket), route.to));
-    let datagrams = pack(&outbox.sends);
+    let sends = in_send_order(std::mem::take(&mut outbox.sends));
+    let datagrams = pack(&sends);
     let mut rest = &datagrams[..];
     while let Some((first, _)) = rest.first() {
         let n = rest
@@ -94,7 +91,27 @@ fn flush(mut outbox: Outbox) {
     }
 }
 
-/// The datagrams of sorted writes: each write's bytes are whole in one datagram, and runs of
+/// The writes grouped by socket, then address, keeping the order of the writes to each address,
+/// and sockets and addresses in the order they were first written to: the peer a frame was
+/// handed to first is sent to first, in every batch.
+fn in_send_order(sends: Vec<(Route, Range<usize>)>) -> Vec<(Route, Range<usize>)> {
+    let mut seen: Vec<(*const UdpSocket, SocketAddr)> = Vec::new();
+    let mut rank = |route: &Route| {
+        let key = (Arc::as_ptr(&route.socket), route.to);
+        let socket = seen.iter().position(|(s, _)| *s == key.0);
+        let address = seen.iter().position(|k| *k == key).unwrap_or_else(|| {
+            seen.push(key);
+            seen.len() - 1
+        });
+        (socket.unwrap_or(address), address)
+    };
+    let mut ranked: Vec<_> = sends.into_iter().map(|s| (rank(&s.0), s)).collect();
+    // Stable: writes to one address keep their order.
+    ranked.sort_by_key(|(rank, _)| *rank);
+    ranked.into_iter().map(|(_, send)| send).collect()
+}
+
+/// The datagrams of writes [in send order](in_send_order): each write's bytes are whole in one datagram, and runs of
 /// writes to one address share one while they fit the route's [`Route::pack_up_to`]. The
 /// writes' bytes lie back to back in the outbox in the order they were written, so a datagram
 /// is a list of ranges.
@@ -322,19 +339,18 @@ mod tests {
         );
         // Fan-out as a router writes it: each frame to 2 and 1 on one socket, 1 on another.
         let routes = [route(&s, 2, 1200), route(&s, 1, 1200), route(&t, 1, 1200)];
-        let mut sends = writes(&routes, &[5; 9]);
-        sends.sort_by_key(|(route, _)| (Arc::as_ptr(&route.socket), route.to));
+        let sends = in_send_order(writes(&routes, &[5; 9]));
         let datagrams = pack(&sends);
-        let mut shapes: Vec<_> = datagrams
+        let shapes: Vec<_> = datagrams
             .iter()
             .map(|(r, parts)| (Arc::ptr_eq(&r.socket, &s), r.to.port(), parts.clone()))
             .collect();
-        shapes.sort_by_key(|(own, port, _)| (!own, *port));
+        // In the order first written to: socket s (port 2, then 1), then socket t.
         assert_eq!(
             shapes,
             [
-                (true, 1, vec![5..10, 20..25, 35..40]),
                 (true, 2, vec![0..5, 15..20, 30..35]),
+                (true, 1, vec![5..10, 20..25, 35..40]),
                 (false, 1, vec![10..15, 25..30, 40..45]),
             ]
         );

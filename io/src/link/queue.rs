@@ -115,10 +115,15 @@ impl Queue {
             p.data.drain(..n);
             p.dropped += 1;
         }
+        // The writer waits only for an empty queue: waking it for each frame of a burst would
+        // cost a system call a frame.
+        let was_empty = p.data.is_empty();
         p.data.extend(frame);
         p.lens.push_back(frame.len());
         drop(p);
-        self.wake.notify_one();
+        if was_empty {
+            self.wake.notify_one();
+        }
         Ok(())
     }
 
@@ -208,6 +213,45 @@ mod tests {
         }
         assert_eq!(queued(&q), [[1u8; 4], [2; 4]].concat());
         assert_eq!(q.dropped(), 1);
+    }
+
+    /// Collects what the writer thread writes, a few bytes a call.
+    struct Collect(Arc<Mutex<Vec<u8>>>);
+
+    impl LinkWriter for Collect {
+        fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+            let n = bytes.len().min(7);
+            self.0.lock().expect("lock").extend_from_slice(&bytes[..n]);
+            Ok(n)
+        }
+    }
+
+    #[test]
+    fn the_writer_thread_gets_every_frame_of_bursts_and_lone_frames() {
+        let out = Arc::new(Mutex::new(Vec::new()));
+        let writer: Box<dyn LinkWriter> = Box::new(Collect(out.clone()));
+        let policy = OutputQueue {
+            overflow: Overflow::DropNewest,
+            bytes: 1 << 20,
+        };
+        let q = Queue::start("test writer", policy, Arc::new(Mutex::new(writer))).expect("spawn");
+        let mut sent = Vec::new();
+        for i in 0..2000u32 {
+            let frame = i.to_le_bytes();
+            q.push(&frame).expect("open");
+            sent.extend_from_slice(&frame);
+            // Bursts, and frames alone that find the writer asleep.
+            if i % 100 == 0 {
+                std::thread::sleep(std::time::Duration::from_millis(2));
+            }
+        }
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+        while out.lock().expect("lock").len() < sent.len() && std::time::Instant::now() < deadline {
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        q.close();
+        assert_eq!(*out.lock().expect("lock"), sent);
+        assert_eq!(q.dropped(), 0);
     }
 
     #[test]
