@@ -16,6 +16,9 @@ use std::sync::Arc;
 
 /// Datagrams read at most per call.
 pub(crate) const BATCH: usize = 64;
+/// Datagrams a call may read when the reader is woken for one at a time.
+#[cfg(target_os = "linux")]
+const MIN_ROOM: usize = 4;
 /// Room for each datagram of a batch: the largest UDP datagram fits. (The buffer is allocated
 /// zeroed, so the kernel maps its pages only as datagrams fill them.)
 pub(crate) const DATAGRAM_ROOM: usize = 64 * 1024;
@@ -33,160 +36,196 @@ pub(crate) struct Route {
 /// Ethernet, Wi-Fi and the usual tunnels (WireGuard, IPsec, PPPoE) with their headers.
 pub const PACKED_DATAGRAM: usize = 1200;
 
-/// Datagrams waiting for the end of the batch: each write's route and its bytes in `bytes`.
+/// Datagrams given to one `sendmmsg`.
+const SEND_BATCH: usize = 64;
+
+/// What a batch holds back, and the room to send it in: kept on each thread from batch to
+/// batch, so that once a thread has seen its largest batch, a batch allocates nothing.
 #[derive(Default)]
 struct Outbox {
+    /// Whether a batch is running on this thread.
+    open: bool,
+    /// Each write's route and its bytes in `bytes`, in the order written.
     sends: Vec<(Route, Range<usize>)>,
     bytes: Vec<u8>,
+    /// The writes in the order they go out: (socket's rank, address's rank, write).
+    order: Vec<(usize, usize, usize)>,
+    /// The sockets and addresses in the order first written to.
+    seen: Vec<(*const UdpSocket, SocketAddr)>,
+    /// The datagrams: the write whose route they take, and their bytes in `wire`.
+    datagrams: Vec<(usize, Range<usize>)>,
+    wire: Vec<u8>,
+    #[cfg(target_os = "linux")]
+    sender: Option<Sendmmsg>,
+}
+
+/// The room `sendmmsg` needs: headers and addresses for [`SEND_BATCH`] datagrams.
+#[cfg(target_os = "linux")]
+struct Sendmmsg {
+    headers: nix::sys::socket::MultiHeaders<nix::sys::socket::SockaddrStorage>,
+    addrs: Vec<Option<nix::sys::socket::SockaddrStorage>>,
 }
 
 thread_local! {
-    static OUTBOX: RefCell<Option<Outbox>> = const { RefCell::new(None) };
+    static OUTBOX: RefCell<Outbox> = RefCell::new(Outbox::default());
 }
 
 /// Runs `handle` with the sends of UDP [`Sender`](super::Sender)s on this thread held back,
 /// then sends them, one system call per socket where the system allows.
 pub(crate) fn batch<R>(handle: impl FnOnce() -> R) -> R {
-    let nested = OUTBOX.with(|o| o.borrow().is_some());
+    let nested = OUTBOX.with(|o| std::mem::replace(&mut o.borrow_mut().open, true));
     if nested {
         return handle();
     }
-    OUTBOX.with(|o| *o.borrow_mut() = Some(Outbox::default()));
-    let result = handle();
-    if let Some(outbox) = OUTBOX.with(|o| o.borrow_mut().take()) {
-        flush(outbox);
+    let _open = Open;
+    handle()
+}
+
+/// A running batch: ended and sent when dropped, even if its handler panics.
+struct Open;
+
+impl Drop for Open {
+    fn drop(&mut self) {
+        OUTBOX.with(|o| {
+            let mut outbox = o.borrow_mut();
+            outbox.open = false;
+            outbox.flush();
+        });
     }
-    result
 }
 
 /// Holds a write back until the batch ends; `false` when no batch is running (send it now).
 pub(crate) fn defer(route: &Route, bytes: &[u8]) -> bool {
-    OUTBOX.with(|o| match o.borrow_mut().as_mut() {
-        Some(outbox) => {
-            let start = outbox.bytes.len();
-            outbox.bytes.extend_from_slice(bytes);
-            outbox
-                .sends
-                .push((route.clone(), start..outbox.bytes.len()));
-            true
+    OUTBOX.with(|o| {
+        let mut outbox = o.borrow_mut();
+        if !outbox.open {
+            return false;
         }
-        None => false,
+        let start = outbox.bytes.len();
+        outbox.bytes.extend_from_slice(bytes);
+        let end = outbox.bytes.len();
+        outbox.sends.push((route.clone(), start..end));
+        true
     })
 }
 
-/// Sends what a batch held back, in order per address. A datagram the kernel refuses is lost,
-/// as a UDP datagram may be.
-fn flush(mut outbox: Outbox) {
-    let sends = in_send_order(std::mem::take(&mut outbox.sends));
-    let datagrams = pack(&sends);
-    let mut rest = &datagrams[..];
-    while let Some((first, _)) = rest.first() {
-        let n = rest
-            .iter()
-            .take_while(|(r, _)| Arc::ptr_eq(&r.socket, &first.socket))
-            .count();
-        let (group, tail) = rest.split_at(n);
-        send_all(&first.socket, group, &outbox.bytes);
-        rest = tail;
+impl Outbox {
+    /// Sends what the batch held back, in order per address, and empties the outbox (keeping
+    /// its room, unless a rare batch made it large). A datagram the kernel refuses is lost, as
+    /// a UDP datagram may be.
+    fn flush(&mut self) {
+        self.pack();
+        let mut rest = 0..self.datagrams.len();
+        while let Some(&(first, _)) = self.datagrams.get(rest.start) {
+            let socket = Arc::clone(&self.sends[first].0.socket);
+            let n = self.datagrams[rest.clone()]
+                .iter()
+                .take_while(|(w, _)| Arc::ptr_eq(&self.sends[*w].0.socket, &socket))
+                .count();
+            self.send_all(&socket, rest.start..rest.start + n);
+            rest.start += n;
+        }
+        self.sends.clear();
+        self.bytes.clear();
+        const KEEP: usize = 1 << 20;
+        if self.bytes.capacity() > KEEP || self.wire.capacity() > KEEP {
+            *self = Outbox::default();
+        }
     }
-}
 
-/// The writes grouped by socket, then address, keeping the order of the writes to each address,
-/// and sockets and addresses in the order they were first written to: the peer a frame was
-/// handed to first is sent to first, in every batch.
-fn in_send_order(sends: Vec<(Route, Range<usize>)>) -> Vec<(Route, Range<usize>)> {
-    let mut seen: Vec<(*const UdpSocket, SocketAddr)> = Vec::new();
-    let mut rank = |route: &Route| {
-        let key = (Arc::as_ptr(&route.socket), route.to);
-        let socket = seen.iter().position(|(s, _)| *s == key.0);
-        let address = seen.iter().position(|k| *k == key).unwrap_or_else(|| {
-            seen.push(key);
-            seen.len() - 1
-        });
-        (socket.unwrap_or(address), address)
-    };
-    let mut ranked: Vec<_> = sends.into_iter().map(|s| (rank(&s.0), s)).collect();
-    // Stable: writes to one address keep their order.
-    ranked.sort_by_key(|(rank, _)| *rank);
-    ranked.into_iter().map(|(_, send)| send).collect()
-}
-
-/// The datagrams of writes [in send order](in_send_order): each write's bytes are whole in one datagram, and runs of
-/// writes to one address share one while they fit the route's [`Route::pack_up_to`]. The
-/// writes' bytes lie back to back in the outbox in the order they were written, so a datagram
-/// is a list of ranges.
-fn pack(sends: &[(Route, Range<usize>)]) -> Vec<(&Route, Vec<Range<usize>>)> {
-    let mut datagrams: Vec<(&Route, Vec<Range<usize>>, usize)> = Vec::with_capacity(sends.len());
-    for (route, bytes) in sends {
-        if let Some((last, parts, len)) = datagrams.last_mut() {
-            let fits = *len + bytes.len() <= route.pack_up_to;
-            if fits && Arc::ptr_eq(&last.socket, &route.socket) && last.to == route.to {
-                parts.push(bytes.clone());
-                *len += bytes.len();
-                continue;
+    /// Puts the writes in send order ([`Outbox::order`]) and lays out the datagrams: grouped by
+    /// socket, then address, sockets and addresses in the order they were first written to (the
+    /// peer a frame was handed to first is sent to first, in every batch), the writes to each
+    /// address in the order written. Each write's bytes are whole in one datagram, and runs of
+    /// writes to one address share one while they fit the route's [`Route::pack_up_to`].
+    fn pack(&mut self) {
+        self.seen.clear();
+        self.order.clear();
+        for (i, (route, _)) in self.sends.iter().enumerate() {
+            let key = (Arc::as_ptr(&route.socket), route.to);
+            let socket = self.seen.iter().position(|(s, _)| *s == key.0);
+            let address = match self.seen.iter().position(|k| *k == key) {
+                Some(at) => at,
+                None => {
+                    self.seen.push(key);
+                    self.seen.len() - 1
+                }
+            };
+            self.order.push((socket.unwrap_or(address), address, i));
+        }
+        self.order.sort_unstable();
+        self.datagrams.clear();
+        self.wire.clear();
+        // The address of the last datagram.
+        let mut last = None;
+        for &(_, address, w) in &self.order {
+            let (route, bytes) = &self.sends[w];
+            let start = self.wire.len();
+            self.wire
+                .extend_from_slice(self.bytes.get(bytes.clone()).unwrap_or_default());
+            let end = self.wire.len();
+            match self.datagrams.last_mut() {
+                Some((_, datagram))
+                    if last == Some(address) && end - datagram.start <= route.pack_up_to =>
+                {
+                    datagram.end = end;
+                }
+                _ => {
+                    self.datagrams.push((w, start..end));
+                    last = Some(address);
+                }
             }
         }
-        datagrams.push((route, vec![bytes.clone()], bytes.len()));
     }
-    datagrams
-        .into_iter()
-        .map(|(route, parts, _)| (route, parts))
-        .collect()
-}
 
-/// One datagram: where it goes and the ranges of the outbox's bytes it carries.
-type Datagram<'a> = (&'a Route, Vec<Range<usize>>);
+    /// Sends `datagrams` (a range of [`Outbox::datagrams`], all from `socket`).
+    #[cfg(target_os = "linux")]
+    fn send_all(&mut self, socket: &UdpSocket, datagrams: Range<usize>) {
+        use nix::sys::socket::{sendmmsg, MsgFlags, MultiHeaders, SockaddrStorage};
+        use std::io::IoSlice;
+        use std::os::fd::AsRawFd;
 
-#[cfg(target_os = "linux")]
-fn send_all(socket: &UdpSocket, group: &[Datagram<'_>], bytes: &[u8]) {
-    use nix::sys::socket::{sendmmsg, MsgFlags, MultiHeaders, SockaddrStorage};
-    use std::io::IoSlice;
-    use std::os::fd::AsRawFd;
-
-    let mut pending = group;
-    while !pending.is_empty() {
-        let slices: Vec<Vec<IoSlice<'_>>> = pending
-            .iter()
-            .map(|(_, parts)| {
-                parts
-                    .iter()
-                    .map(|r| IoSlice::new(bytes.get(r.clone()).unwrap_or_default()))
-                    .collect()
-            })
-            .collect();
-        let addrs: Vec<Option<SockaddrStorage>> = pending
-            .iter()
-            .map(|(route, _)| Some(SockaddrStorage::from(route.to)))
-            .collect();
-        let mut headers = MultiHeaders::<SockaddrStorage>::preallocate(slices.len(), None);
-        let sent = sendmmsg(
-            socket.as_raw_fd(),
-            &mut headers,
-            &slices,
-            &addrs,
-            [],
-            MsgFlags::empty(),
-        )
-        .map(Iterator::count);
-        match sent {
-            Ok(n) if n > 0 => pending = pending.get(n..).unwrap_or_default(),
-            Err(nix::errno::Errno::EINTR) => {}
-            // The first datagram was refused (an ICMP error pending, a full buffer): skip it
-            // and carry on with the rest.
-            _ => pending = pending.get(1..).unwrap_or_default(),
+        let room = self.sender.get_or_insert_with(|| Sendmmsg {
+            headers: MultiHeaders::preallocate(SEND_BATCH, None),
+            addrs: Vec::with_capacity(SEND_BATCH),
+        });
+        let mut pending = &self.datagrams[datagrams];
+        while !pending.is_empty() {
+            let now = &pending[..pending.len().min(SEND_BATCH)];
+            let mut slices = [[IoSlice::new(&[])]; SEND_BATCH];
+            room.addrs.clear();
+            for (slice, (w, bytes)) in slices.iter_mut().zip(now) {
+                *slice = [IoSlice::new(
+                    self.wire.get(bytes.clone()).unwrap_or_default(),
+                )];
+                room.addrs
+                    .push(Some(SockaddrStorage::from(self.sends[*w].0.to)));
+            }
+            let sent = sendmmsg(
+                socket.as_raw_fd(),
+                &mut room.headers,
+                &slices[..now.len()],
+                &room.addrs,
+                [],
+                MsgFlags::empty(),
+            )
+            .map(Iterator::count);
+            match sent {
+                Ok(n) if n > 0 => pending = pending.get(n..).unwrap_or_default(),
+                Err(nix::errno::Errno::EINTR) => {}
+                // The first datagram was refused (an ICMP error pending, a full buffer): skip
+                // it and carry on with the rest.
+                _ => pending = pending.get(1..).unwrap_or_default(),
+            }
         }
     }
-}
 
-#[cfg(not(target_os = "linux"))]
-fn send_all(socket: &UdpSocket, group: &[Datagram<'_>], bytes: &[u8]) {
-    for (route, parts) in group {
-        let datagram: Vec<u8> = parts
-            .iter()
-            .flat_map(|r| bytes.get(r.clone()).unwrap_or_default())
-            .copied()
-            .collect();
-        let _ = socket.send_to(&datagram, route.to);
+    #[cfg(not(target_os = "linux"))]
+    fn send_all(&mut self, socket: &UdpSocket, datagrams: Range<usize>) {
+        for (w, bytes) in &self.datagrams[datagrams] {
+            let datagram = self.wire.get(bytes.clone()).unwrap_or_default();
+            let _ = socket.send_to(datagram, self.sends[*w].0.to);
+        }
     }
 }
 
@@ -211,6 +250,11 @@ pub(crate) fn widen_receive_buffer(socket: &UdpSocket) {
 pub(crate) struct Inbox {
     buf: Vec<u8>,
     got: Vec<(usize, Option<SocketAddr>)>,
+    /// How many datagrams the next receive may take: doubled while receives fill it, up to
+    /// [`BATCH`], halved while they take less than a quarter of it. A reader woken for one
+    /// datagram at a time sets up a few headers, not [`BATCH`].
+    #[cfg(target_os = "linux")]
+    room: usize,
     #[cfg(target_os = "linux")]
     headers: nix::sys::socket::MultiHeaders<nix::sys::socket::SockaddrStorage>,
 }
@@ -220,6 +264,8 @@ impl Inbox {
         Inbox {
             buf: vec![0; BATCH * DATAGRAM_ROOM],
             got: Vec::with_capacity(BATCH),
+            #[cfg(target_os = "linux")]
+            room: MIN_ROOM,
             #[cfg(target_os = "linux")]
             headers: nix::sys::socket::MultiHeaders::preallocate(BATCH, None),
         }
@@ -234,15 +280,19 @@ impl Inbox {
         use std::os::fd::AsRawFd;
 
         self.got.clear();
-        let mut slices: Vec<[IoSliceMut<'_>; 1]> = self
-            .buf
-            .chunks_mut(DATAGRAM_ROOM)
-            .map(|c| [IoSliceMut::new(c)])
-            .collect();
+        let mut slices: [[IoSliceMut<'_>; 1]; BATCH] =
+            std::array::from_fn(|_| [IoSliceMut::new(&mut [])]);
+        for (slice, chunk) in slices
+            .iter_mut()
+            .zip(self.buf.chunks_mut(DATAGRAM_ROOM))
+            .take(self.room)
+        {
+            *slice = [IoSliceMut::new(chunk)];
+        }
         let received = recvmmsg(
             socket.as_raw_fd(),
             &mut self.headers,
-            slices.iter_mut(),
+            slices.iter_mut().take(self.room),
             MsgFlags::MSG_WAITFORONE,
             None,
         )
@@ -255,7 +305,13 @@ impl Inbox {
             });
             self.got.push((m.bytes.min(DATAGRAM_ROOM), from));
         }
-        Ok(self.got.len())
+        let n = self.got.len();
+        if n == self.room {
+            self.room = (2 * n).min(BATCH);
+        } else if 4 * n < self.room {
+            self.room = (self.room / 2).max(MIN_ROOM);
+        }
+        Ok(n)
     }
 
     #[cfg(not(target_os = "linux"))]
@@ -277,7 +333,6 @@ impl Inbox {
 }
 
 #[cfg(test)]
-#[allow(clippy::single_range_in_vec_init)] // a datagram of one write
 mod tests {
     use super::*;
 
@@ -289,37 +344,53 @@ mod tests {
         }
     }
 
-    /// The writes of `lens` bytes each, back to back, to `routes` in turn.
-    fn writes(routes: &[Route], lens: &[usize]) -> Vec<(Route, Range<usize>)> {
-        let mut at = 0;
-        lens.iter()
-            .enumerate()
-            .map(|(i, &n)| {
-                at += n;
-                (routes[i % routes.len()].clone(), at - n..at)
+    /// The datagrams an outbox makes of writes of `lens` bytes each (write `i` is `lens[i]`
+    /// bytes of value `i`) to `routes` in turn: (socket, port, bytes) each.
+    fn packed(routes: &[Route], lens: &[usize]) -> Vec<(*const UdpSocket, u16, Vec<u8>)> {
+        let mut outbox = Outbox::default();
+        for (i, &n) in lens.iter().enumerate() {
+            let start = outbox.bytes.len();
+            outbox.bytes.extend(std::iter::repeat_n(i as u8, n));
+            let end = outbox.bytes.len();
+            outbox
+                .sends
+                .push((routes[i % routes.len()].clone(), start..end));
+        }
+        outbox.pack();
+        outbox
+            .datagrams
+            .iter()
+            .map(|(w, bytes)| {
+                let route = &outbox.sends[*w].0;
+                (
+                    Arc::as_ptr(&route.socket),
+                    route.to.port(),
+                    outbox.wire[bytes.clone()].to_vec(),
+                )
             })
             .collect()
     }
 
-    fn shape(datagrams: &[Datagram<'_>]) -> Vec<(u16, Vec<Range<usize>>)> {
-        datagrams
+    /// `n` bytes of each write in `writes`, one after the other.
+    fn of(writes: &[(u8, usize)]) -> Vec<u8> {
+        writes
             .iter()
-            .map(|(r, parts)| (r.to.port(), parts.clone()))
+            .flat_map(|&(i, n)| std::iter::repeat_n(i, n))
             .collect()
     }
 
     #[test]
     fn writes_to_one_address_share_datagrams_while_they_fit() {
         let s = Arc::new(UdpSocket::bind("127.0.0.1:0").expect("bind"));
-        let sends = writes(&[route(&s, 1, 100)], &[40, 40, 40, 150, 10]);
+        let p = Arc::as_ptr(&s);
         assert_eq!(
-            shape(&pack(&sends)),
+            packed(&[route(&s, 1, 100)], &[40, 40, 40, 150, 10]),
             [
-                (1, vec![0..40, 40..80]),
-                (1, vec![80..120]),
+                (p, 1, of(&[(0, 40), (1, 40)])),
+                (p, 1, of(&[(2, 40)])),
                 // Longer than a datagram may be: alone, whole.
-                (1, vec![120..270]),
-                (1, vec![270..280]),
+                (p, 1, of(&[(3, 150)])),
+                (p, 1, of(&[(4, 10)])),
             ]
         );
     }
@@ -327,8 +398,11 @@ mod tests {
     #[test]
     fn without_packing_each_write_is_a_datagram() {
         let s = Arc::new(UdpSocket::bind("127.0.0.1:0").expect("bind"));
-        let sends = writes(&[route(&s, 1, 0)], &[10, 10]);
-        assert_eq!(shape(&pack(&sends)), [(1, vec![0..10]), (1, vec![10..20])]);
+        let p = Arc::as_ptr(&s);
+        assert_eq!(
+            packed(&[route(&s, 1, 0)], &[10, 10]),
+            [(p, 1, of(&[(0, 10)])), (p, 1, of(&[(1, 10)]))]
+        );
     }
 
     #[test]
@@ -337,22 +411,23 @@ mod tests {
             Arc::new(UdpSocket::bind("127.0.0.1:0").expect("bind")),
             Arc::new(UdpSocket::bind("127.0.0.1:0").expect("bind")),
         );
+        let (ps, pt) = (Arc::as_ptr(&s), Arc::as_ptr(&t));
         // Fan-out as a router writes it: each frame to 2 and 1 on one socket, 1 on another.
         let routes = [route(&s, 2, 1200), route(&s, 1, 1200), route(&t, 1, 1200)];
-        let sends = in_send_order(writes(&routes, &[5; 9]));
-        let datagrams = pack(&sends);
-        let shapes: Vec<_> = datagrams
-            .iter()
-            .map(|(r, parts)| (Arc::ptr_eq(&r.socket, &s), r.to.port(), parts.clone()))
-            .collect();
         // In the order first written to: socket s (port 2, then 1), then socket t.
         assert_eq!(
-            shapes,
+            packed(&routes, &[5; 9]),
             [
-                (true, 2, vec![0..5, 15..20, 30..35]),
-                (true, 1, vec![5..10, 20..25, 35..40]),
-                (false, 1, vec![10..15, 25..30, 40..45]),
+                (ps, 2, of(&[(0, 5), (3, 5), (6, 5)])),
+                (ps, 1, of(&[(1, 5), (4, 5), (7, 5)])),
+                (pt, 1, of(&[(2, 5), (5, 5), (8, 5)])),
             ]
+        );
+        // Writes to one address that others come between still share its datagrams.
+        let routes = [route(&t, 1, 1200), route(&s, 2, 1200), route(&t, 1, 1200)];
+        assert_eq!(
+            packed(&routes, &[5; 3]),
+            [(pt, 1, of(&[(0, 5), (2, 5)])), (ps, 2, of(&[(1, 5)]))]
         );
     }
 
@@ -385,5 +460,86 @@ mod tests {
         assert_eq!(sizes, [1200, 800]);
         // Outside a batch, a write is sent at once.
         assert!(!defer(&to, b"now"));
+    }
+
+    #[test]
+    fn more_datagrams_than_one_call_sends_all_arrive_in_order() {
+        let out = Arc::new(UdpSocket::bind("127.0.0.1:0").expect("bind"));
+        let rx = UdpSocket::bind("127.0.0.1:0").expect("bind");
+        widen_receive_buffer(&rx);
+        rx.set_read_timeout(Some(std::time::Duration::from_secs(2)))
+            .expect("timeout");
+        let to = Route {
+            socket: out.clone(),
+            to: rx.local_addr().expect("bound"),
+            pack_up_to: 0,
+        };
+        let n = 3 * SEND_BATCH + 5;
+        batch(|| {
+            for i in 0..n {
+                assert!(defer(&to, &(i as u32).to_le_bytes()));
+            }
+        });
+        let mut buf = [0u8; 64];
+        for i in 0..n {
+            let got = rx.recv(&mut buf).expect("a datagram");
+            assert_eq!(buf[..got], (i as u32).to_le_bytes());
+        }
+    }
+
+    #[test]
+    fn a_reader_takes_a_burst_whole_and_in_order_taking_more_a_call_as_it_comes() {
+        let rx = UdpSocket::bind("127.0.0.1:0").expect("bind");
+        widen_receive_buffer(&rx);
+        let tx = UdpSocket::bind("127.0.0.1:0").expect("bind");
+        let to = rx.local_addr().expect("bound");
+        let n = 300u32;
+        for i in 0..n {
+            tx.send_to(&i.to_le_bytes(), to).expect("send");
+        }
+        let mut inbox = Inbox::new();
+        let (mut got, mut calls) = (Vec::new(), Vec::new());
+        while got.len() < n as usize {
+            calls.push(inbox.receive(&rx).expect("datagrams"));
+            for (bytes, from) in inbox.datagrams() {
+                assert_eq!(from, Some(tx.local_addr().expect("bound")));
+                got.push(u32::from_le_bytes(bytes.try_into().expect("4 bytes")));
+            }
+        }
+        assert_eq!(got, (0..n).collect::<Vec<_>>());
+        #[cfg(target_os = "linux")]
+        {
+            assert_eq!(calls[..5], [4, 8, 16, 32, 64], "{calls:?}");
+            // Woken for one datagram at a time, it sets up fewer headers again.
+            for _ in 0..4 {
+                tx.send_to(b"one", to).expect("send");
+                assert_eq!(inbox.receive(&rx).expect("a datagram"), 1);
+            }
+            assert_eq!(inbox.room, MIN_ROOM);
+        }
+    }
+
+    #[test]
+    fn a_batch_whose_handler_panics_still_ends() {
+        let out = Arc::new(UdpSocket::bind("127.0.0.1:0").expect("bind"));
+        let rx = UdpSocket::bind("127.0.0.1:0").expect("bind");
+        rx.set_read_timeout(Some(std::time::Duration::from_secs(2)))
+            .expect("timeout");
+        let to = Route {
+            socket: out,
+            to: rx.local_addr().expect("bound"),
+            pack_up_to: PACKED_DATAGRAM,
+        };
+        let panicked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            batch(|| {
+                assert!(defer(&to, b"before"));
+                panic!("a handler's bug");
+            })
+        }));
+        assert!(panicked.is_err());
+        let mut buf = [0u8; 64];
+        let n = rx.recv(&mut buf).expect("what was deferred went out");
+        assert_eq!(&buf[..n], b"before");
+        assert!(!defer(&to, b"after"), "no batch is running any more");
     }
 }
