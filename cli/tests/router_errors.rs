@@ -62,3 +62,21 @@ fn an_output_queue_of_zero_bytes() {
       hint: give the bytes a slow peer may have waiting, e.g. --queue-bytes 65536 (the default)
     ");
 }
+
+#[cfg(feature = "zenoh")]
+#[test]
+fn a_zenoh_runtime_variable_that_does_not_parse() {
+    let out = Command::new(env!("CARGO_BIN_EXE_ferrolink"))
+        .args(["mavlink", "router", "--run-for", "5", "udpin://127.0.0.1:0"])
+        .arg("zenoh://?mode=peer&listen=tcp/127.0.0.1:0")
+        .env("ZENOH_RUNTIME", "(rx: (worker_threads: \"two\"))")
+        .output()
+        .expect("ferrolink runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    // Zenoh's own parser, run before Zenoh starts: its words, no panic.
+    insta::assert_snapshot!(err, @r#"
+    ZENOH_RUNTIME="(rx: (worker_threads: \"two\"))" is not a Zenoh runtime configuration: SpannedError { code: ExpectedInteger, span: Span { start: Position { line: 1, col: 22 }, end: Position { line: 1, col: 23 } } }
+      hint: it is RON, e.g. ZENOH_RUNTIME='(rx: (worker_threads: 2))'; unset it for ferrolink's default (all of Zenoh on one worker thread)
+    "#);
+}

@@ -27,10 +27,48 @@ pub const ONE_WORKER_THREAD: &str =
 /// Zenoh reads the variable when it first starts, so call this at the start of `main`, before
 /// any thread is started.
 pub fn one_worker_thread() {
-    const VAR: &str = "ZENOH_RUNTIME";
-    if std::env::var_os(VAR).is_none() {
-        std::env::set_var(VAR, ONE_WORKER_THREAD);
+    if std::env::var_os(RUNTIME_VAR).is_none() {
+        std::env::set_var(RUNTIME_VAR, ONE_WORKER_THREAD);
     }
+}
+
+/// The variable Zenoh takes its runtimes' configuration from.
+const RUNTIME_VAR: &str = "ZENOH_RUNTIME";
+
+/// Zenoh reads `ZENOH_RUNTIME` when it first starts, and panics if it cannot parse it. Parse it
+/// here first, with Zenoh's own parser, so that a bad value is an error that says what is wrong
+/// with it instead. Done once per process (the panic hook is silenced meanwhile).
+fn check_runtime_variable() -> io::Result<()> {
+    static CHECKED: std::sync::OnceLock<Result<(), String>> = std::sync::OnceLock::new();
+    let checked = CHECKED.get_or_init(|| {
+        let Some(value) = std::env::var_os(RUNTIME_VAR) else {
+            return Ok(());
+        };
+        let hook = std::panic::take_hook();
+        std::panic::set_hook(Box::new(|_| {}));
+        let parsed = std::panic::catch_unwind(|| {
+            let _ = &*zenoh_runtime::ZRUNTIME_PARAM;
+        });
+        std::panic::set_hook(hook);
+        parsed.map_err(|panic| {
+            let why = panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("it does not parse");
+            let why = why
+                .strip_prefix("called `Result::unwrap()` on an `Err` value: ")
+                .unwrap_or(why);
+            format!(
+                "{RUNTIME_VAR}={value:?} is not a Zenoh runtime configuration: {why}\n  \
+                 hint: it is RON, e.g. {RUNTIME_VAR}='(rx: (worker_threads: 2))'; unset it for \
+                 ferrolink's default (all of Zenoh on one worker thread)"
+            )
+        })
+    });
+    checked
+        .clone()
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))
 }
 
 /// A session and the callbacks that take what arrives on it; dropping it undeclares them and
@@ -51,6 +89,7 @@ impl Running {
     /// Joins the network `uri` names.
     pub(crate) fn open(uri: &ZenohUri) -> io::Result<Running> {
         let name = uri.to_string();
+        check_runtime_variable()?;
         let config = uri.config().map_err(io::Error::other)?;
         let session = zenoh::open(config)
             .wait()
