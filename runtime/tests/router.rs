@@ -326,6 +326,41 @@ fn routes_age_out_and_closed_links_forget_theirs() {
 }
 
 #[test]
+fn routes_around_and_after_freed_slots_are_all_found() {
+    let mut r = router(4);
+    let to = |r: &mut R, sysid: u8| one(r, 0, &frame(COMMAND_LONG, 255, 190, 0, (sysid, 1)), 1);
+    for link in 1..=3u8 {
+        one(&mut r, usize::from(link), &heartbeat(link, 1), 0);
+    }
+    // A freed slot before the others, then the last one.
+    r.close_link(1);
+    assert_eq!(to(&mut r, 3), (1 << 3, None));
+    r.close_link(3);
+    assert_eq!(to(&mut r, 2), (1 << 2, None));
+    assert_eq!(to(&mut r, 3), (0, Some(DropReason::NoRoute)));
+    // New routes fill the freed slots, and the one past them.
+    for sysid in [4, 5, 6] {
+        one(&mut r, 2, &heartbeat(sysid, 1), 1);
+    }
+    for sysid in [2, 4, 5, 6] {
+        assert_eq!(to(&mut r, sysid), (1 << 2, None), "system {sysid}");
+    }
+    let mut systems: Vec<u8> = r.routes().map(|r| r.sysid).collect();
+    systems.sort_unstable();
+    // (255, the sender of the commands, is learned too.)
+    assert_eq!(systems, [2, 4, 5, 6, 255]);
+    // All aged out, then learned again.
+    r.expire(DEFAULT_ROUTE_TTL_US + 2);
+    assert_eq!(r.routes().count(), 0);
+    one(&mut r, 2, &heartbeat(6, 1), DEFAULT_ROUTE_TTL_US + 3);
+    let cmd = frame(COMMAND_LONG, 255, 190, 0, (6, 1));
+    assert_eq!(
+        one(&mut r, 0, &cmd, DEFAULT_ROUTE_TTL_US + 3),
+        (1 << 2, None)
+    );
+}
+
+#[test]
 fn full_tables_evict_the_oldest_and_keep_working() {
     let mut r: Router<2, 4, 4, 4> = Router::new(META);
     r.open_link(LinkConfig::default());

@@ -191,6 +191,9 @@ struct State<
     /// The domain of each replay state (0: a single link's).
     signing_domains: [u8; LINKS],
     routes: [Option<Route>; ROUTES],
+    /// Every route is in `routes[..routes_end]`: the scans for each frame stop there, not at
+    /// `ROUTES`.
+    routes_end: usize,
     sources: [Option<SourceCounters>; SOURCES],
     seen: [Seen; DEDUP],
     seen_next: usize,
@@ -230,6 +233,7 @@ impl<
                 signing: core::array::from_fn(|_| None),
                 signing_domains: [0; LINKS],
                 routes: [None; ROUTES],
+                routes_end: 0,
                 sources: [None; SOURCES],
                 seen: [Seen::default(); DEDUP],
                 seen_next: 0,
@@ -281,11 +285,13 @@ impl<
         if let Some(link) = self.state.links.get_mut(index) {
             link.open = false;
         }
-        for slot in &mut self.state.routes {
+        let state = &mut self.state;
+        for slot in state.routes.iter_mut().take(state.routes_end) {
             if slot.is_some_and(|r| r.link == index) {
                 *slot = None;
             }
         }
+        state.trim_routes();
     }
 
     /// Whether link `index` is open.
@@ -316,7 +322,11 @@ impl<
     /// The routes learned and not yet freed: routing frees aged-out routes at most every 100 ms,
     /// [`Router::expire`] at once.
     pub fn routes(&self) -> impl Iterator<Item = &Route> + '_ {
-        self.state.routes.iter().flatten()
+        self.state
+            .routes
+            .iter()
+            .take(self.state.routes_end)
+            .flatten()
     }
 
     /// Forgets routes not heard for longer than the route lifetime.
@@ -450,12 +460,35 @@ impl<
             return;
         }
         self.expired_at_us = now_us;
-        for slot in &mut self.routes {
+        for slot in self.routes.iter_mut().take(self.routes_end) {
             if slot.is_some_and(|r| now_us.saturating_sub(r.last_seen_us) > self.route_ttl_us) {
                 *slot = None;
                 self.counters.routes_expired += 1;
             }
         }
+        self.trim_routes();
+    }
+
+    /// Moves [`State::routes_end`] back over the free slots at the end, after routes were
+    /// forgotten.
+    fn trim_routes(&mut self) {
+        while self.routes_end > 0
+            && self
+                .routes
+                .get(self.routes_end - 1)
+                .is_some_and(Option::is_none)
+        {
+            self.routes_end -= 1;
+        }
+        debug_assert!(self.routes_end_holds());
+    }
+
+    /// Whether every route is in `routes[..routes_end]`.
+    fn routes_end_holds(&self) -> bool {
+        self.routes
+            .iter()
+            .skip(self.routes_end)
+            .all(Option::is_none)
     }
 
     /// Applies the rules to one frame from link `from`.
@@ -602,7 +635,13 @@ impl<
         let live = |r: &&Route| {
             self.route_ttl_us == 0 || now_us.saturating_sub(r.last_seen_us) <= self.route_ttl_us
         };
-        for r in self.routes.iter().flatten().filter(live) {
+        for r in self
+            .routes
+            .iter()
+            .take(self.routes_end)
+            .flatten()
+            .filter(live)
+        {
             if r.sysid == sysid {
                 system |= 1 << r.link;
                 if r.compid == compid {
@@ -624,6 +663,7 @@ impl<
         if let Some(route) = self
             .routes
             .iter_mut()
+            .take(self.routes_end)
             .flatten()
             .find(|r| (r.sysid, r.compid, r.link) == (sysid, compid, link))
         {
@@ -636,8 +676,15 @@ impl<
             link,
             last_seen_us: now_us,
         };
-        if let Some(free) = self.routes.iter_mut().find(|s| s.is_none()) {
+        if let Some((at, free)) = self
+            .routes
+            .iter_mut()
+            .enumerate()
+            .find(|(_, s)| s.is_none())
+        {
             *free = Some(route);
+            self.routes_end = self.routes_end.max(at + 1);
+            debug_assert!(self.routes_end_holds());
             return;
         }
         // The table is full. Each open link's share is an equal part of it: a link at its share
