@@ -72,10 +72,11 @@ struct Burst {
 ///
 /// A repeat of the last request (its reply was lost) is answered with the same reply and not
 /// run again, so a repeated create, write, remove or rename does no harm and reports what the
-/// first did. A late copy of an earlier one (of the last eight, within
-/// [`ServerConfig::repeat_window_us`]) that would change something or open or close a session
-/// is dropped; reads, writes at an offset, listings and CRCs run again. A repeated burst read
-/// starts the burst again.
+/// first did. A late copy of an earlier one that would change something or open or close a
+/// session (of the last eight such, within [`ServerConfig::repeat_window_us`]) is dropped;
+/// reads, writes at an offset, listings and CRCs run again, and however many of them a client
+/// pipelines, they never push a create out of that memory. A repeated burst read starts the
+/// burst again.
 #[derive(Debug, Clone)]
 pub struct Server<const S: usize> {
     config: ServerConfig,
@@ -83,7 +84,7 @@ pub struct Server<const S: usize> {
     replies: [Option<(Address, Payload)>; 4],
     /// The last request (its sender, bytes and arrival) and its reply.
     last: Option<(Address, [u8; 251], u64, Payload)>,
-    /// The requests before it: sender, CRC-32 of the bytes, arrival.
+    /// The requests that must not run twice before it: sender, CRC-32 of the bytes, arrival.
     recent: [Option<(Address, u32, u64)>; 8],
     burst: Option<Burst>,
     dropped: usize,
@@ -165,11 +166,6 @@ impl<const S: usize> Server<S> {
         // would change something, or open or close a session, is not run again. Its client had
         // its answer, or it would not have gone on to another request. Reads and writes at an
         // offset do no harm run twice, and pipelined clients retry them out of turn.
-        let fingerprint = crate::crc::FTP_CRC32.checksum(&m.payload);
-        let window = self.config.repeat_window_us;
-        let seen = self.recent.iter().flatten().any(|&(to, crc, at)| {
-            to == from && crc == fingerprint && now_us.saturating_sub(at) < window
-        });
         let harmless = matches!(
             op,
             Opcode::ReadFile
@@ -178,11 +174,21 @@ impl<const S: usize> Server<S> {
                 | Opcode::BurstReadFile
                 | Opcode::CalcFileCRC32
         );
-        if seen && !harmless {
-            return;
+        if !harmless {
+            let fingerprint = crate::crc::FTP_CRC32.checksum(&m.payload);
+            let window = self.config.repeat_window_us;
+            let seen = self.recent.iter().flatten().any(|&(to, crc, at)| {
+                to == from && crc == fingerprint && now_us.saturating_sub(at) < window
+            });
+            if seen {
+                return;
+            }
+            // Only what must not run twice is remembered: a window of pipelined writes would
+            // otherwise push out the create that opened their session, and a late copy of it
+            // would create the file again under them.
+            self.recent.rotate_right(1);
+            self.recent[0] = Some((from, fingerprint, now_us));
         }
-        self.recent.rotate_right(1);
-        self.recent[0] = Some((from, fingerprint, now_us));
         if usize::from(req.size) > MAX_DATA {
             let reply = Payload::nak(&req, Nak::InvalidDataSize);
             self.answer(from, &m.payload, now_us, reply);
