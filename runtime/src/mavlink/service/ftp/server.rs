@@ -166,6 +166,11 @@ impl<const S: usize> Server<S> {
         // would change something, or open or close a session, is not run again. Its client had
         // its answer, or it would not have gone on to another request. Reads and writes at an
         // offset do no harm run twice, and pipelined clients retry them out of turn.
+        let fingerprint = crate::crc::FTP_CRC32.checksum(&m.payload);
+        let window = self.config.repeat_window_us;
+        let seen = self.recent.iter().flatten().any(|&(to, crc, at)| {
+            to == from && crc == fingerprint && now_us.saturating_sub(at) < window
+        });
         let harmless = matches!(
             op,
             Opcode::ReadFile
@@ -174,18 +179,13 @@ impl<const S: usize> Server<S> {
                 | Opcode::BurstReadFile
                 | Opcode::CalcFileCRC32
         );
+        // Only what must not run twice is remembered: a window of pipelined writes would
+        // otherwise push out the create that opened their session, and a late copy of it would
+        // create the file again under them.
         if !harmless {
-            let fingerprint = crate::crc::FTP_CRC32.checksum(&m.payload);
-            let window = self.config.repeat_window_us;
-            let seen = self.recent.iter().flatten().any(|&(to, crc, at)| {
-                to == from && crc == fingerprint && now_us.saturating_sub(at) < window
-            });
             if seen {
                 return;
             }
-            // Only what must not run twice is remembered: a window of pipelined writes would
-            // otherwise push out the create that opened their session, and a late copy of it
-            // would create the file again under them.
             self.recent.rotate_right(1);
             self.recent[0] = Some((from, fingerprint, now_us));
         }

@@ -396,19 +396,16 @@ impl Server {
         // step, took a simulated 500-item upload at 20 % loss from 20.8 to 15.8 s.) A walk
         // whose step goes unanswered as long steps back the same way: the client may have gone
         // back again on another late copy, and then waits for an item before the step.
-        let probe = !u.request_due && u.next > 0 && u.tries >= 3 && u.tries % 3 == 0;
+        let probe = !u.request_due && !u.walk_now && u.next > 0 && u.tries >= 3 && u.tries % 3 == 0;
+        if probe {
+            match u.behind.as_mut() {
+                Some(behind) => *behind = behind.saturating_sub(1),
+                None => u.probes = u.probes.saturating_add(1),
+            }
+        }
         let seq = match u.behind {
-            Some(behind) if u.walk_now => behind,
-            Some(behind) if probe => {
-                let back = behind.saturating_sub(1);
-                u.behind = Some(back);
-                back
-            }
-            Some(behind) if !u.request_due => behind,
-            _ if probe => {
-                u.probes = u.probes.saturating_add(1);
-                u.next.saturating_sub(u16::from(u.probes))
-            }
+            Some(behind) if u.walk_now || !u.request_due => behind,
+            _ if probe => u.next.saturating_sub(u16::from(u.probes)),
             _ => u.next,
         };
         if u.walk_now {
