@@ -1,10 +1,12 @@
 //! Many datagrams a system call: a UDP reader takes what has arrived with one `recvmmsg`, and
-//! the datagrams its sink sends while it handles them go out together, one `sendmmsg` per
-//! socket, once the batch is handled (and any lock the sink took is released).
+//! the datagrams sent on its thread go out together when it next waits for one, in the same
+//! system call as the wait where the kernel allows it ([`uring`](super::uring)), one `sendmmsg`
+//! per socket otherwise. Other threads send what a batch held back once it is handled (and any
+//! lock the sink took is released).
 //!
 //! Senders that allow it ([`Options::pack_up_to`](super::Options::pack_up_to)) also share
-//! datagrams: what a batch sends to one address goes out in as few datagrams as fit, each
-//! frame whole and in order.
+//! datagrams: what a reader sends to one address between two waits goes out in as few
+//! datagrams as fit, each frame whole and in order.
 //!
 //! On systems without these calls, each datagram is one call, as before.
 
@@ -13,6 +15,10 @@ use std::io;
 use std::net::{SocketAddr, UdpSocket};
 use std::ops::Range;
 use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[cfg(target_os = "linux")]
+use super::uring::{Ring, Woken};
 
 /// Datagrams read at most per call.
 pub(crate) const BATCH: usize = 64;
@@ -45,6 +51,9 @@ const SEND_BATCH: usize = 64;
 struct Outbox {
     /// Whether a batch is running on this thread.
     open: bool,
+    /// Whether this thread reads a UDP socket ([`Inbox`]): it holds every send back until it
+    /// next waits for a datagram.
+    reader: bool,
     /// Each write's route and its bytes in `bytes`, in the order written.
     sends: Vec<(Route, Range<usize>)>,
     bytes: Vec<u8>,
@@ -71,7 +80,8 @@ thread_local! {
 }
 
 /// Runs `handle` with the sends of UDP [`Sender`](super::Sender)s on this thread held back,
-/// then sends them, one system call per socket where the system allows.
+/// then sends them, one system call per socket where the system allows (on a UDP reader's
+/// thread, when it next waits).
 pub(crate) fn batch<R>(handle: impl FnOnce() -> R) -> R {
     let nested = OUTBOX.with(|o| std::mem::replace(&mut o.borrow_mut().open, true));
     if nested {
@@ -89,16 +99,19 @@ impl Drop for Open {
         OUTBOX.with(|o| {
             let mut outbox = o.borrow_mut();
             outbox.open = false;
-            outbox.flush();
+            if !outbox.reader {
+                outbox.flush();
+            }
         });
     }
 }
 
-/// Holds a write back until the batch ends; `false` when no batch is running (send it now).
+/// Holds a write back until the batch ends (on a UDP reader's thread, until it next waits);
+/// `false` when no batch is running (send it now).
 pub(crate) fn defer(route: &Route, bytes: &[u8]) -> bool {
     OUTBOX.with(|o| {
         let mut outbox = o.borrow_mut();
-        if !outbox.open {
+        if !outbox.open && !outbox.reader {
             return false;
         }
         let start = outbox.bytes.len();
@@ -114,7 +127,16 @@ impl Outbox {
     /// its room, unless a rare batch made it large). A datagram the kernel refuses is lost, as
     /// a UDP datagram may be.
     fn flush(&mut self) {
+        if self.sends.is_empty() {
+            return;
+        }
         self.pack();
+        self.send_packed();
+        self.clear();
+    }
+
+    /// Sends the datagrams [`Outbox::pack`] laid out, one `sendmmsg` per socket.
+    fn send_packed(&mut self) {
         let mut rest = 0..self.datagrams.len();
         while let Some(&(first, _)) = self.datagrams.get(rest.start) {
             let socket = Arc::clone(&self.sends[first].0.socket);
@@ -125,11 +147,19 @@ impl Outbox {
             self.send_all(&socket, rest.start..rest.start + n);
             rest.start += n;
         }
+    }
+
+    /// Empties the outbox, keeping its room unless a rare batch made it large.
+    fn clear(&mut self) {
         self.sends.clear();
         self.bytes.clear();
         const KEEP: usize = 1 << 20;
         if self.bytes.capacity() > KEEP || self.wire.capacity() > KEEP {
-            *self = Outbox::default();
+            *self = Outbox {
+                open: self.open,
+                reader: self.reader,
+                ..Outbox::default()
+            };
         }
     }
 
@@ -176,6 +206,44 @@ impl Outbox {
                 }
             }
         }
+    }
+
+    /// Sends what is held back and waits for `readable` in one system call, with `ring` (set up
+    /// on first use); `None` if nothing was held back, or if the kernel gives no ring (then
+    /// what was held back has been sent the usual way, and the caller waits).
+    #[cfg(target_os = "linux")]
+    fn send_and_wait(
+        &mut self,
+        ring: &mut Option<Option<Ring>>,
+        readable: &UdpSocket,
+        until: Option<Instant>,
+    ) -> Option<Woken> {
+        if self.sends.is_empty() {
+            return None;
+        }
+        self.pack();
+        let woken = match ring.get_or_insert_with(Ring::new) {
+            Some(r) => {
+                let datagrams = self.datagrams.iter().map(|(w, bytes)| {
+                    let route = &self.sends[*w].0;
+                    (&*route.socket, route.to, bytes.clone())
+                });
+                match r.send_and_wait(datagrams, &mut self.wire, readable, until) {
+                    Ok(woken) => Some(woken),
+                    Err(_) => {
+                        // Without the ring from now on; what it did not send is lost.
+                        *ring = Some(None);
+                        None
+                    }
+                }
+            }
+            None => {
+                self.send_packed();
+                None
+            }
+        };
+        self.clear();
+        woken
     }
 
     /// Sends `datagrams` (a range of [`Outbox::datagrams`], all from `socket`).
@@ -246,7 +314,8 @@ pub(crate) fn widen_receive_buffer(socket: &UdpSocket) {
     let _ = socket;
 }
 
-/// Room to read a batch of datagrams into.
+/// Room to read a batch of datagrams into, for the one thread that reads a UDP socket: while it
+/// lives, the UDP datagrams sent on that thread are held back until the thread next waits.
 pub(crate) struct Inbox {
     buf: Vec<u8>,
     got: Vec<(usize, Option<SocketAddr>)>,
@@ -257,10 +326,23 @@ pub(crate) struct Inbox {
     room: usize,
     #[cfg(target_os = "linux")]
     headers: nix::sys::socket::MultiHeaders<nix::sys::socket::SockaddrStorage>,
+    /// The ring that sends and waits in one call: not set up yet, or set up (`None` where the
+    /// kernel gives none).
+    #[cfg(target_os = "linux")]
+    ring: Option<Option<Ring>>,
+    /// The socket's read timeout, for a blocking receive: relative to each receive, so one set
+    /// for `until` at `set_at` may wake late by as much as a receive starts after `set_at`. It
+    /// is set again when `until` moves or it would wake later than `tolerance`, not on every
+    /// receive: one system call fewer per batch.
+    timeout: Option<(Option<Instant>, Instant)>,
+    tolerance: Duration,
 }
 
 impl Inbox {
-    pub(crate) fn new() -> Inbox {
+    /// Room for a reader whose receives may wake up to `tolerance` after the `until` they are
+    /// given.
+    pub(crate) fn new(tolerance: Duration) -> Inbox {
+        OUTBOX.with(|o| o.borrow_mut().reader = true);
         Inbox {
             buf: vec![0; BATCH * DATAGRAM_ROOM],
             got: Vec::with_capacity(BATCH),
@@ -268,14 +350,40 @@ impl Inbox {
             room: MIN_ROOM,
             #[cfg(target_os = "linux")]
             headers: nix::sys::socket::MultiHeaders::preallocate(BATCH, None),
+            #[cfg(target_os = "linux")]
+            ring: None,
+            timeout: None,
+            tolerance,
         }
     }
 
-    /// Waits (up to the socket's read timeout) for a datagram, and takes what else has arrived
-    /// with it, up to [`BATCH`].
+    /// Sends what this thread held back, then waits (until `until` at most) for a datagram and
+    /// takes what else has arrived with it, up to [`BATCH`]. A wait that ends without one is a
+    /// [`TimedOut`](io::ErrorKind::TimedOut) or [`WouldBlock`](io::ErrorKind::WouldBlock)
+    /// error.
     #[cfg(target_os = "linux")]
-    pub(crate) fn receive(&mut self, socket: &UdpSocket) -> io::Result<usize> {
-        use nix::sys::socket::{recvmmsg, MsgFlags};
+    pub(crate) fn receive(
+        &mut self,
+        socket: &UdpSocket,
+        until: Option<Instant>,
+    ) -> io::Result<usize> {
+        use nix::sys::socket::MsgFlags;
+
+        let waited = OUTBOX.with(|o| o.borrow_mut().send_and_wait(&mut self.ring, socket, until));
+        match waited {
+            Some(Woken::TimedOut) => Err(io::ErrorKind::TimedOut.into()),
+            Some(Woken::Readable) => self.take(socket, MsgFlags::MSG_DONTWAIT),
+            None => {
+                self.wait_until(socket, until);
+                self.take(socket, MsgFlags::MSG_WAITFORONE)
+            }
+        }
+    }
+
+    /// Receives with `recvmmsg`.
+    #[cfg(target_os = "linux")]
+    fn take(&mut self, socket: &UdpSocket, flags: nix::sys::socket::MsgFlags) -> io::Result<usize> {
+        use nix::sys::socket::recvmmsg;
         use std::io::IoSliceMut;
         use std::os::fd::AsRawFd;
 
@@ -293,7 +401,7 @@ impl Inbox {
             socket.as_raw_fd(),
             &mut self.headers,
             slices.iter_mut().take(self.room),
-            MsgFlags::MSG_WAITFORONE,
+            flags,
             None,
         )
         .map_err(io::Error::from)?;
@@ -315,12 +423,34 @@ impl Inbox {
     }
 
     #[cfg(not(target_os = "linux"))]
-    pub(crate) fn receive(&mut self, socket: &UdpSocket) -> io::Result<usize> {
+    pub(crate) fn receive(
+        &mut self,
+        socket: &UdpSocket,
+        until: Option<Instant>,
+    ) -> io::Result<usize> {
+        OUTBOX.with(|o| o.borrow_mut().flush());
+        self.wait_until(socket, until);
         self.got.clear();
         let room = self.buf.get_mut(..DATAGRAM_ROOM).unwrap_or_default();
         let (n, from) = socket.recv_from(room)?;
         self.got.push((n, Some(from)));
         Ok(1)
+    }
+
+    /// Sets the socket's read timeout for `until`, when the one set would not do.
+    fn wait_until(&mut self, socket: &UdpSocket, until: Option<Instant>) {
+        let now = Instant::now();
+        let tolerance = self.tolerance;
+        if self.timeout.is_none_or(|(set_for, set_at)| {
+            set_for != until || (until.is_some() && now - set_at > tolerance)
+        }) {
+            let wait = until.map(|t| {
+                t.saturating_duration_since(now)
+                    .max(Duration::from_millis(1))
+            });
+            let _ = socket.set_read_timeout(wait);
+            self.timeout = Some((until, now));
+        }
     }
 
     /// The datagrams of the last [`Inbox::receive`], with their senders.
@@ -332,9 +462,22 @@ impl Inbox {
     }
 }
 
+impl Drop for Inbox {
+    /// The thread reads no more: what it held back goes out now, and its sends from now on
+    /// go out at once.
+    fn drop(&mut self) {
+        OUTBOX.with(|o| {
+            let mut outbox = o.borrow_mut();
+            outbox.reader = false;
+            outbox.flush();
+        });
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::thread;
 
     fn route(socket: &Arc<UdpSocket>, port: u16, pack_up_to: usize) -> Route {
         Route {
@@ -497,10 +640,10 @@ mod tests {
         for i in 0..n {
             tx.send_to(&i.to_le_bytes(), to).expect("send");
         }
-        let mut inbox = Inbox::new();
+        let mut inbox = Inbox::new(Duration::ZERO);
         let (mut got, mut calls) = (Vec::new(), Vec::new());
         while got.len() < n as usize {
-            calls.push(inbox.receive(&rx).expect("datagrams"));
+            calls.push(inbox.receive(&rx, None).expect("datagrams"));
             for (bytes, from) in inbox.datagrams() {
                 assert_eq!(from, Some(tx.local_addr().expect("bound")));
                 got.push(u32::from_le_bytes(bytes.try_into().expect("4 bytes")));
@@ -513,7 +656,7 @@ mod tests {
             // Woken for one datagram at a time, it sets up fewer headers again.
             for _ in 0..4 {
                 tx.send_to(b"one", to).expect("send");
-                assert_eq!(inbox.receive(&rx).expect("a datagram"), 1);
+                assert_eq!(inbox.receive(&rx, None).expect("a datagram"), 1);
             }
             assert_eq!(inbox.room, MIN_ROOM);
         }
@@ -541,5 +684,124 @@ mod tests {
         let n = rx.recv(&mut buf).expect("what was deferred went out");
         assert_eq!(&buf[..n], b"before");
         assert!(!defer(&to, b"after"), "no batch is running any more");
+    }
+
+    /// A reader thread's inbox, with the ring (where the kernel gives one) or without.
+    fn reader_inbox(ring: bool) -> Inbox {
+        let mut inbox = Inbox::new(Duration::ZERO);
+        #[cfg(target_os = "linux")]
+        if !ring {
+            inbox.ring = Some(None);
+        }
+        #[cfg(not(target_os = "linux"))]
+        let _ = ring;
+        inbox
+    }
+
+    /// Two sockets of the reader's, a peer each, and the socket it reads.
+    struct Fanout {
+        routes: [Route; 2],
+        peers: [UdpSocket; 2],
+        read: UdpSocket,
+    }
+
+    fn fanout() -> Fanout {
+        let peer = || {
+            let p = UdpSocket::bind("127.0.0.1:0").expect("bind");
+            p.set_read_timeout(Some(Duration::from_secs(2)))
+                .expect("timeout");
+            p
+        };
+        let peers = [peer(), peer()];
+        let routes = [0, 1].map(|i| Route {
+            socket: Arc::new(UdpSocket::bind("127.0.0.1:0").expect("bind")),
+            to: peers[i].local_addr().expect("bound"),
+            pack_up_to: PACKED_DATAGRAM,
+        });
+        let read = UdpSocket::bind("127.0.0.1:0").expect("bind");
+        Fanout {
+            routes,
+            peers,
+            read,
+        }
+    }
+
+    fn recv(socket: &UdpSocket) -> Vec<u8> {
+        let mut buf = [0u8; 2048];
+        let n = socket.recv(&mut buf).expect("a datagram");
+        buf[..n].to_vec()
+    }
+
+    #[test]
+    fn a_reader_holds_its_sends_until_it_waits_and_they_go_out_before_it_sleeps() {
+        for ring in [true, false] {
+            let f = fanout();
+            let waker = UdpSocket::bind("127.0.0.1:0").expect("bind");
+            let read_at = f.read.local_addr().expect("bound");
+            thread::scope(|scope| {
+                let reader = scope.spawn(|| {
+                    let mut inbox = reader_inbox(ring);
+                    batch(|| {
+                        assert!(defer(&f.routes[0], b"one"));
+                        assert!(defer(&f.routes[1], b"two"));
+                        assert!(defer(&f.routes[0], b"three"));
+                    });
+                    // Held past the batch, and outside one too, on a reader's thread.
+                    assert!(defer(&f.routes[1], b"four"));
+                    let got = inbox.receive(&f.read, None).expect("a datagram");
+                    let (bytes, _) = inbox.datagrams().next().expect("one");
+                    (got, bytes.to_vec())
+                });
+                // They arrive while the reader sleeps, packed per peer: nothing has woken it.
+                assert_eq!(recv(&f.peers[0]), b"onethree", "ring: {ring}");
+                assert_eq!(recv(&f.peers[1]), b"twofour", "ring: {ring}");
+                assert!(!reader.is_finished());
+                waker.send_to(b"wake", read_at).expect("send");
+                assert_eq!(reader.join().expect("reader"), (1, b"wake".to_vec()));
+            });
+        }
+    }
+
+    #[test]
+    fn a_reader_whose_wait_times_out_has_sent_and_reads_on() {
+        for ring in [true, false] {
+            let f = fanout();
+            let mut inbox = reader_inbox(ring);
+            assert!(defer(&f.routes[0], b"held"));
+            let until = Instant::now() + Duration::from_millis(30);
+            let e = inbox
+                .receive(&f.read, Some(until))
+                .expect_err("nothing to read");
+            assert!(crate::is_timeout(&e), "ring: {ring}: {e}");
+            assert_eq!(recv(&f.peers[0]), b"held");
+            // The next wait, with nothing held, reads what arrives.
+            let from = UdpSocket::bind("127.0.0.1:0").expect("bind");
+            from.send_to(b"later", f.read.local_addr().expect("bound"))
+                .expect("send");
+            assert!(defer(&f.routes[1], b"again"));
+            let got = loop {
+                match inbox.receive(&f.read, None) {
+                    Ok(n) => break n,
+                    // A poll left by the wait that timed out may wake it early once.
+                    Err(e) if crate::is_timeout(&e) => continue,
+                    Err(e) => panic!("{e}"),
+                }
+            };
+            assert_eq!(got, 1);
+            assert_eq!(inbox.datagrams().next().map(|d| d.0), Some(&b"later"[..]));
+            assert_eq!(recv(&f.peers[1]), b"again");
+        }
+    }
+
+    #[test]
+    fn a_reader_that_ends_sends_what_it_held_and_then_sends_at_once() {
+        for ring in [true, false] {
+            let f = fanout();
+            let inbox = reader_inbox(ring);
+            assert!(defer(&f.routes[0], b"held"));
+            drop(inbox);
+            assert_eq!(recv(&f.peers[0]), b"held");
+            assert!(!defer(&f.routes[0], b"now"));
+        }
     }
 }

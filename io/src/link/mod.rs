@@ -37,9 +37,13 @@
 //! arrives. A UDP reader waits without a timeout (dropping the [`Handle`] wakes it with an empty
 //! datagram) and takes every datagram that has arrived with one `recvmmsg`; stream readers look
 //! up every 200 ms to notice a shutdown. The sink runs on the reader's thread, so a router can
-//! route a datagram the moment it is read, with no hand-over between threads; the UDP datagrams
-//! it sends while handling one read go out together, one `sendmmsg` per socket, when it
-//! returns; with [`Options::pack_up_to`] set, those bound for one address share datagrams.
+//! route a datagram the moment it is read, with no hand-over between threads. The UDP datagrams
+//! sent on a UDP reader's thread go out together when it next waits: in the same system call as
+//! the wait, through an io_uring, on Linux 5.11 and later where the kernel gives one (container
+//! sandboxes may not), and otherwise one `sendmmsg` per socket before it; the peers they wake
+//! then run while the reader sleeps, not in its way. Other threads send what they write while
+//! handling a read when the sink returns. With [`Options::pack_up_to`] set, the datagrams bound
+//! for one address share datagrams.
 
 use std::collections::HashMap;
 use std::fmt;
@@ -50,6 +54,8 @@ use crate::{is_timeout, LinkReader, LinkWriter};
 
 mod batch;
 mod queue;
+#[cfg(target_os = "linux")]
+mod uring;
 
 pub use batch::PACKED_DATAGRAM;
 use queue::Queue;
@@ -494,26 +500,10 @@ fn udp_in(
     let mut peers: HashMap<SocketAddr, (PeerId, Instant)> = HashMap::new();
     // When the quietest peer would expire: the only reason to wake without a datagram.
     let mut sweep_at: Option<Instant> = None;
-    let mut inbox = batch::Inbox::new();
-    // The read timeout is relative to each receive: set for `sweep_at` at `set_at`, a receive
-    // starting later may wake that much after the sweep is due. It is set again when the sweep
-    // moves or it would wake more than a sixteenth of the expiry late, not on every receive:
-    // one system call fewer per batch.
-    let mut set: Option<(Option<Instant>, Instant)> = None;
-    let tolerance = expiry / 16;
+    // A sweep may come up to a sixteenth of the expiry late.
+    let mut inbox = batch::Inbox::new(expiry / 16);
     while !stop.load(Ordering::Relaxed) {
-        let now = Instant::now();
-        if set.is_none_or(|(set_for, set_at)| {
-            set_for != sweep_at || (sweep_at.is_some() && now - set_at > tolerance)
-        }) {
-            let wait = sweep_at.map(|t| {
-                t.saturating_duration_since(now)
-                    .max(Duration::from_millis(1))
-            });
-            let _ = socket.set_read_timeout(wait);
-            set = Some((sweep_at, now));
-        }
-        let received = inbox.receive(socket);
+        let received = inbox.receive(socket, sweep_at);
         if stop.load(Ordering::Relaxed) {
             return;
         }
@@ -592,10 +582,9 @@ fn udp_one_peer(
     stop: &AtomicBool,
     events: &Sink,
 ) {
-    let _ = socket.set_read_timeout(None);
-    let mut inbox = batch::Inbox::new();
+    let mut inbox = batch::Inbox::new(Duration::ZERO);
     while !stop.load(Ordering::Relaxed) {
-        let received = inbox.receive(socket);
+        let received = inbox.receive(socket, None);
         if stop.load(Ordering::Relaxed) {
             return;
         }
