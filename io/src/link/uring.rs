@@ -36,7 +36,7 @@ pub(crate) enum Woken {
     TimedOut,
 }
 
-/// A reader thread's ring.
+/// A reader thread's ring, used on the thread that set it up and no other.
 pub(crate) struct Ring {
     ring: IoUring,
     /// Whether a poll is in the ring that has not completed: a wait that timed out leaves it.
@@ -51,7 +51,15 @@ impl Ring {
     /// A ring, or `None` where the kernel has none to give (before Linux 5.11, which can wait
     /// with a timeout, or where io_uring is disabled, as container sandboxes often do).
     pub(crate) fn new() -> Option<Ring> {
-        let ring = IoUring::builder().setup_submit_all().build(ENTRIES).ok()?;
+        // Completions are posted when this thread next waits in the ring (Linux 6.1), so a poll
+        // left by a wait that timed out never interrupts the thread in another system call.
+        let ring = IoUring::builder()
+            .setup_submit_all()
+            .setup_single_issuer()
+            .setup_defer_taskrun()
+            .build(ENTRIES)
+            .or_else(|_| IoUring::builder().setup_submit_all().build(ENTRIES))
+            .ok()?;
         ring.params().is_feature_ext_arg().then(|| Ring {
             ring,
             polling: false,
