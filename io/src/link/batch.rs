@@ -43,6 +43,7 @@ pub(crate) struct Route {
 pub const PACKED_DATAGRAM: usize = 1200;
 
 /// Datagrams given to one `sendmmsg`.
+#[cfg_attr(not(target_os = "linux"), allow(dead_code))]
 const SEND_BATCH: usize = 64;
 
 /// What a batch holds back, and the room to send it in: kept on each thread from batch to
@@ -300,6 +301,7 @@ impl Outbox {
 /// The receive buffer asked for on every UDP endpoint's socket: at 50,000 datagrams a second,
 /// tens of milliseconds of traffic, so that a reader the scheduler keeps waiting on a busy
 /// machine loses nothing. The kernel caps it at `net.core.rmem_max`.
+#[cfg_attr(not(target_os = "linux"), allow(dead_code))]
 pub(crate) const RECEIVE_BUFFER: usize = 2 << 20;
 
 /// Asks for [`RECEIVE_BUFFER`] bytes of receive buffer; a system that gives less keeps its
@@ -688,14 +690,19 @@ mod tests {
 
     /// A reader thread's inbox, with the ring (where the kernel gives one) or without.
     fn reader_inbox(ring: bool) -> Inbox {
-        let mut inbox = Inbox::new(Duration::ZERO);
         #[cfg(target_os = "linux")]
-        if !ring {
-            inbox.ring = Some(None);
+        {
+            let mut inbox = Inbox::new(Duration::ZERO);
+            if !ring {
+                inbox.ring = Some(None);
+            }
+            inbox
         }
         #[cfg(not(target_os = "linux"))]
-        let _ = ring;
-        inbox
+        {
+            let _ = ring;
+            Inbox::new(Duration::ZERO)
+        }
     }
 
     /// Two sockets of the reader's, a peer each, and the socket it reads.
