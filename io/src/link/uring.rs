@@ -49,7 +49,7 @@ pub(crate) struct Ring {
 
 impl Ring {
     /// A ring, or `None` where the kernel has none to give (before Linux 5.11, which can wait
-    /// with a timeout, or where io_uring is disabled, as container sandboxes often do).
+    /// with a timeout, or where io_uring is disabled, as some container sandboxes do).
     pub(crate) fn new() -> Option<Ring> {
         // A plain ring: one that posts completions only when the thread waits in it
         // (`setup_defer_taskrun`) cost as much CPU and added latency now and then (p50 at 1k
@@ -71,9 +71,10 @@ impl Ring {
     ///
     /// It returns only when the kernel has finished with every datagram, so nothing it was
     /// given can be freed or moved under it. If that cannot be known (the ring itself failed,
-    /// which a working kernel never does), the ring is dropped, `wire` and the addresses are
-    /// left allocated for good, and the error is returned: the caller sends without a ring from
-    /// then on.
+    /// which a working kernel never does), `wire` and the addresses are left allocated for good
+    /// and the error is returned: the caller then drops the ring and sends without one.
+    ///
+    /// A ring serves one reader: a poll left by a wait that timed out is for its socket.
     pub(crate) fn send_and_wait<'a>(
         &mut self,
         datagrams: impl Iterator<Item = (&'a UdpSocket, SocketAddr, Range<usize>)>,
