@@ -302,6 +302,79 @@ fn a_failed_upload_leaves_the_old_mission() {
     assert_eq!(server.poll_timeout(), None);
 }
 
+/// Uploads three items to a server directly, 5 ms each way: every request is answered with
+/// the item asked for, but item 2, the last, is lost until `lost_until_us`. Returns the ACK's
+/// result, its time and how many requests for item 2 went out.
+fn upload_losing_the_last_item(lost_until_us: u64) -> (MavMissionResult, u64, u32) {
+    let items = plan(3, 0);
+    let mut store = Missions::default();
+    let mut server = Server::new(ServerConfig::new(VEHICLE));
+    let count = Message::MissionCount(MissionCount {
+        target_system: 1,
+        target_component: 1,
+        count: 3,
+        mission_type: MavMissionType::Mission,
+    });
+    server.handle(&mut store, 0, GCS, &count);
+    let (mut now, mut asked_for_2) = (0, 0);
+    loop {
+        match server.poll_transmit(&store, now) {
+            Some(Message::MissionRequestInt(r)) => {
+                asked_for_2 += u32::from(r.seq == 2);
+                now += 10_000;
+                if r.seq < 2 || now >= lost_until_us {
+                    server.handle(&mut store, now, GCS, &item_int(&items, r.seq));
+                }
+            }
+            Some(Message::MissionAck(a)) => return (a.r#type, now, asked_for_2),
+            Some(m) => panic!("{m:?}"),
+            None => now = server.poll_timeout().expect("a deadline").max(now + 1),
+        }
+    }
+}
+
+/// On a bad radio the item due can be lost again and again while the client answers the
+/// server's probes with the items before it: the server does not give the upload up while the
+/// client answers (it used to, after 6 s without a new item: one simulated 100-item upload in
+/// about 30,000 at 20 % loss each way). A client that answers only with copies is given up
+/// after 255 requests.
+#[test]
+fn a_client_that_answers_is_not_given_up_while_the_item_due_is_lost() {
+    let (result, at, asked) = upload_losing_the_last_item(15_000_000);
+    assert_eq!(result, MavMissionResult::MavMissionAccepted);
+    assert!(at >= 15_000_000 && asked > 12, "{at} µs, {asked} requests");
+
+    let (result, at, asked) = upload_losing_the_last_item(u64::MAX);
+    assert_eq!(result, MavMissionResult::MavMissionOperationCancelled);
+    assert!(at >= 18_000_000, "given up after {at} µs");
+    // Every third request from the fourth on is a probe for an earlier item.
+    assert!((160..=255).contains(&asked), "{asked} requests for item 2");
+}
+
+/// The seed with which the server gave up a 100-item upload to a rewinding client: item 2 was
+/// lost six times while the client answered every probe.
+#[test]
+fn a_rewinding_client_whose_item_is_lost_again_and_again_is_not_given_up() {
+    let items = plan(100, 0);
+    let mut client = Rewinder {
+        items: items.clone(),
+        next: 0,
+        sent_last: false,
+        asked: false,
+        due: None,
+        count_at: 0,
+        result: None,
+    };
+    let (_, mut vehicle) = pair();
+    let mut sim = Sim::new(7_507_845_791_517_422_188, Faults::BAD_RADIO);
+    let done = sim.run(&mut client, &mut vehicle, 600_000_000, |c, _| {
+        c.result.is_some()
+    });
+    assert!(done, "stuck");
+    assert_eq!(client.result, Some(MavMissionResult::MavMissionAccepted));
+    assert!(same(&vehicle.store.held[0], &items));
+}
+
 #[test]
 fn a_lost_final_ack_is_sent_again() {
     let (mut gcs, mut vehicle) = pair();

@@ -19,7 +19,10 @@ pub struct ServerConfig {
     /// The longest wait for an item asked for, and how many such waits of silence give the
     /// upload up: 1 s and 5 by default. Below the longest wait, the server asks again after the
     /// measured round trip's timeout ([`Rtt::backoff_us`]), and gives up only as
-    /// [`Retry::exhausted`] says.
+    /// [`Retry::exhausted`] says, counting silence from the client's last item, a copy of one
+    /// already taken too (on a bad radio the item due can be lost again and again while the
+    /// client answers). A client that answers only with copies is given up after 255 requests
+    /// for the item due (18 s or more with the defaults).
     pub retry: Retry,
 }
 
@@ -46,7 +49,7 @@ struct Upload {
     deadline: u64,
     request_due: bool,
     sent_us: Option<u64>,
-    /// The last item's arrival (or the count's).
+    /// The last item's arrival, a copy's too (or the count's).
     heard_us: u64,
     /// Where the client seems to stand, when it is behind: the item after the last copy of an
     /// old item it sent. Requests walk it forward from there (see [`Server::poll_transmit`]).
@@ -297,6 +300,7 @@ impl Server {
             }
             return;
         };
+        u.heard_us = now_us;
         if seq < u.next {
             // A copy of an item already taken: a repeated frame, or the answer to a late copy
             // of an old request. Nothing to do at once (asking again here would keep every
@@ -332,7 +336,6 @@ impl Server {
         u.probes = 0;
         u.behind = None;
         u.walk_now = false;
-        u.heard_us = now_us;
         if u.next == u.count {
             store.commit(kind);
             self.upload = None;
@@ -373,11 +376,13 @@ impl Server {
         }
         let timeout_us = self.config.retry.timeout_us;
         if !u.request_due {
-            // No item came: ask again, or give the upload up (the old mission stays).
-            if self
-                .config
-                .retry
-                .exhausted(now_us.saturating_sub(u.heard_us), u.tries)
+            // No item came: ask again, or give the upload up (the old mission stays) when the
+            // client has gone silent, or when it answers only with copies of items taken.
+            if u.tries == u8::MAX
+                || self
+                    .config
+                    .retry
+                    .exhausted(now_us.saturating_sub(u.heard_us), u.tries)
             {
                 self.upload = None;
                 return Some(Message::MissionAck(MissionAck {
