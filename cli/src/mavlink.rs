@@ -225,13 +225,7 @@ fn output_queue(
 ) -> Result<OutputQueue, String> {
     let mut queue = file.unwrap_or(ferrolink_io::link::DAEMON_QUEUE);
     if let Some(bytes) = bytes {
-        if bytes == 0 {
-            return Err(
-                "--queue-bytes 0: no frame would fit\n  hint: give the bytes a slow peer \
-                        may have waiting, e.g. --queue-bytes 65536 (the default)"
-                    .into(),
-            );
-        }
+        ferrolink_io::mavlink::config::queue_fits(bytes, "--queue-bytes ")?;
         queue.bytes = bytes;
     }
     match drop {

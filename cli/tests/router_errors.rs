@@ -58,8 +58,40 @@ fn a_configuration_without_endpoints() {
 #[test]
 fn an_output_queue_of_zero_bytes() {
     insta::assert_snapshot!(refused(&["--queue-bytes", "0", "udpin://127.0.0.1:0"]), @r"
-    --queue-bytes 0: no frame would fit
+    --queue-bytes 0: less than the largest MAVLink frame (280 bytes), which could never be queued
       hint: give the bytes a slow peer may have waiting, e.g. --queue-bytes 65536 (the default)
+    ");
+}
+
+#[test]
+fn an_output_queue_smaller_than_a_frame() {
+    insta::assert_snapshot!(refused(&["--queue-bytes", "279", "udpin://127.0.0.1:0"]), @r"
+    --queue-bytes 279: less than the largest MAVLink frame (280 bytes), which could never be queued
+      hint: give the bytes a slow peer may have waiting, e.g. --queue-bytes 65536 (the default)
+    ");
+}
+
+#[test]
+fn statistics_without_pause() {
+    insta::assert_snapshot!(refused(&["--stats", "0", "udpin://127.0.0.1:0"]), @r"
+    --stats 0: the table would be printed without pause
+      hint: give the seconds between tables, e.g. --stats 1 (0.1 at the least)
+    ");
+}
+
+#[test]
+fn a_filter_with_a_message_id_past_24_bits() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let config = dir.path().join("router.toml");
+    std::fs::write(
+        &config,
+        "[[endpoint]]\nuri = \"udpin://127.0.0.1:0\"\nallow_msg_out = [0, 99999999]\n",
+    )
+    .expect("write");
+    let err = refused(&["--config", config.to_str().expect("utf-8")]);
+    insta::assert_snapshot!(err.replace(config.to_str().expect("utf-8"), "router.toml"), @r"
+    router.toml: endpoint #1 (udpin://127.0.0.1:0): allow_msg_out lists message id 99999999, past the largest a frame carries (16777215)
+      hint: message ids are 24 bits
     ");
 }
 

@@ -69,8 +69,8 @@ fn toml_output_queues() {
     );
     let err = |text: &str| queue(text).unwrap_err().to_string();
     insta::assert_snapshot!(err("queue_bytes = 0\n"), @r"
-    queue_bytes = 0: no frame would fit
-      hint: give the bytes a slow peer may have waiting, e.g. 65536 (the default)
+    queue_bytes = 0: less than the largest MAVLink frame (280 bytes), which could never be queued
+      hint: give the bytes a slow peer may have waiting, e.g. queue_bytes = 65536 (the default)
     ");
     insta::assert_snapshot!(err("queue_drop = \"middle\"\n"), @"1:14: unknown variant `middle`, expected `oldest` or `newest`");
 }

@@ -95,6 +95,77 @@ fn a_refused_tcp_client_is_closed() {
     );
 }
 
+/// Idle TCP connections hold no slot for good: with every slot taken by TCP clients that never
+/// send a frame, the one that has gone longest without a checked frame, past the peer expiry,
+/// is closed to make room for a newcomer (a ground station over UDP, then a TCP client); a
+/// client that talks keeps its slot. Before, the idle connections locked everyone else out.
+#[test]
+fn idle_tcp_clients_give_their_slots_to_newcomers() {
+    use std::io::{Read, Write};
+    use std::net::TcpStream;
+
+    let (tcp, udp) = (free_tcp_port(), free_udp_port());
+    let mut config = daemon::on(Endpoint::TcpIn("127.0.0.1".into(), tcp));
+    config
+        .endpoints
+        .push(ferrolink_io::mavlink::config::EndpointConfig::new(
+            Endpoint::UdpIn("127.0.0.1".into(), udp),
+        ));
+    config.peer_expiry = Some(Duration::from_secs(1));
+    let router = daemon::start(config);
+
+    // One client that talks, then idle ones in every other slot.
+    let mut talker = TcpStream::connect(("127.0.0.1", tcp)).expect("connect");
+    thread::sleep(Duration::from_millis(100));
+    let idle: Vec<TcpStream> = (1..MAX_LINKS)
+        .map(|_| TcpStream::connect(("127.0.0.1", tcp)).expect("connect"))
+        .collect();
+    let keep_talking = Arc::new(AtomicBool::new(true));
+    let talking = {
+        let (mut talker, keep) = (talker.try_clone().expect("clone"), keep_talking.clone());
+        thread::spawn(move || {
+            while keep.load(Ordering::Relaxed) {
+                let _ = talker.write_all(&heartbeat(100));
+                thread::sleep(Duration::from_millis(100));
+            }
+        })
+    };
+    thread::sleep(Duration::from_millis(1_500));
+
+    // A ground station over UDP gets a slot and hears the talker.
+    let gcs = peer();
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let mut heard = false;
+    let mut buf = [0u8; 512];
+    while !heard && Instant::now() < deadline {
+        gcs.send_to(&heartbeat(250), ("127.0.0.1", udp))
+            .expect("send");
+        if let Ok(n) = gcs.recv(&mut buf) {
+            heard = buf[..n]
+                .windows(heartbeat(100).len())
+                .any(|w| w == heartbeat(100));
+        }
+    }
+    // So does a new TCP client.
+    let mut late = TcpStream::connect(("127.0.0.1", tcp)).expect("connect");
+    late.set_read_timeout(Some(Duration::from_secs(3)))
+        .expect("timeout");
+    let late_heard = matches!(late.read(&mut buf), Ok(n) if n > 0);
+    // The talker kept its slot: it hears the ground station.
+    talker
+        .set_read_timeout(Some(Duration::from_secs(3)))
+        .expect("timeout");
+    let talker_heard = matches!(talker.read(&mut buf), Ok(n) if n > 0);
+
+    keep_talking.store(false, Ordering::Relaxed);
+    talking.join().expect("talker");
+    router.stop();
+    drop(idle);
+    assert!(heard, "the ground station never got a slot");
+    assert!(late_heard, "the new TCP client never got a slot");
+    assert!(talker_heard, "the talking client lost its slot");
+}
+
 /// Junk holds no slot: a hundred senders of random datagrams on a `udpin` port, more than there
 /// are slots, and a vehicle and a ground station arriving after them still talk at once.
 #[test]

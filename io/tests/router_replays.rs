@@ -1,9 +1,11 @@
-//! Replay protection in the router daemon is kept per signing endpoint, keyed as the spec keys
-//! it, (link id, system, component): a captured signed frame replayed from a new UDP port, over
-//! a new TCP connection or through a reopened serial device is dropped, while fresh frames pass.
+//! Replay protection in the router daemon is kept per signing key, keyed as the spec keys it,
+//! (link id, system, component): a captured signed frame replayed from a new UDP port, over a
+//! new TCP connection, through a reopened serial device or into another endpoint with the same
+//! key is dropped, while fresh frames pass.
 //!
 //! Before, each peer had its own replay state, so every one of these replays reached the
-//! vehicle.
+//! vehicle; then each endpoint had one, and a frame replayed into another endpoint with the
+//! same key (a radio's and a Wi-Fi link's) did.
 
 mod daemon;
 
@@ -119,6 +121,7 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
     // UDP: a ground station's signed frame, then the same bytes from a new port.
     let gcs = UdpSocket::bind("127.0.0.1:0").expect("bind");
     let captured = signed(3, 255);
+    let captured_on_udp = captured.clone();
     gcs.send_to(&captured, ("127.0.0.1", p_gcs)).expect("send");
     assert!(vehicle.gets(&captured), "the ground station's frame");
     let attacker = UdpSocket::bind("127.0.0.1:0").expect("bind");
@@ -146,6 +149,11 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
     again.write_all(&captured).expect("write");
     if vehicle.gets(&captured) {
         failures.push("replayed over a new TCP connection");
+    }
+    // The frame taken on the UDP endpoint, replayed into the TCP one, which has the same key.
+    again.write_all(&captured_on_udp).expect("write");
+    if vehicle.gets(&captured_on_udp) {
+        failures.push("replayed into another endpoint with the same key");
     }
     let probe = signed(40, 249);
     again.write_all(&probe).expect("write");

@@ -478,33 +478,33 @@ fn signing_at_the_edge() {
     assert_eq!(forwarded, other);
 }
 
-/// The peers of one endpoint share a signing domain: a frame replayed through a new link of
-/// the domain (a new UDP port, TCP connection or reopened device) is dropped, and a new stream
-/// must start within the spec's minute of the domain's clock.
+/// Links with one signing key share its replay state: a frame replayed through a new link
+/// with the key (a new UDP port, TCP connection or reopened device, another endpoint with the
+/// same key) is dropped, and a new stream must start within the spec's minute of the state's
+/// clock.
 #[test]
-fn replays_are_caught_across_the_links_of_a_domain() {
+fn replays_are_caught_across_the_links_of_a_key() {
     let now = 1_700_000_000_000_000;
     let mut r = R::new(META);
-    let domain = |domain| LinkConfig {
-        require_signing: Some(key()),
-        signing_domain: domain,
+    let signing = |key| LinkConfig {
+        require_signing: Some(key),
         ..LinkConfig::default()
     };
-    let first = r.open_link(domain(1)).unwrap();
+    let first = r.open_link(signing(key())).unwrap();
     let vehicle = r.open_link(LinkConfig::default()).unwrap();
     let mut signer = Signer::new(key(), 3);
     let command = signed_heartbeat(&mut signer, now, 1);
     assert_eq!(one(&mut r, first, &command, now), (1 << vehicle, None));
 
-    // The peer goes away; the attacker replays from a new port: a new link, same domain.
+    // The peer goes away; the attacker replays from a new port: a new link, same key.
     r.close_link(first);
-    let second = r.open_link(domain(1)).unwrap();
+    let second = r.open_link(signing(key())).unwrap();
     assert_eq!(
         one(&mut r, second, &command, now + 1_000),
         (0, Some(DropReason::BadSignature))
     );
     // Beside it, at the same time, another peer of the endpoint.
-    let third = r.open_link(domain(1)).unwrap();
+    let third = r.open_link(signing(key())).unwrap();
     assert_eq!(
         one(&mut r, third, &command, now + 2_000),
         (0, Some(DropReason::BadSignature))
@@ -524,12 +524,21 @@ fn replays_are_caught_across_the_links_of_a_domain() {
     let recent = signed_heartbeat(&mut late, now - 30_000_000, 2);
     assert_eq!(one(&mut r, second, &recent, now + 20_000).1, None);
 
-    // Another endpoint (domain 2) has its own state: the frame is new there.
-    let other = r.open_link(domain(2)).unwrap();
-    assert_eq!(one(&mut r, other, &command, now + 30_000).1, None);
-    // Domain 0 links have a state of their own each, started afresh.
-    let alone = r.open_link(domain(0)).unwrap();
-    assert_eq!(one(&mut r, alone, &command, now + 40_000).1, None);
+    // Every link with the key, whatever it is, shares the state: the frame is a replay there.
+    let another = r.open_link(signing(key())).unwrap();
+    assert_eq!(
+        one(&mut r, another, &command, now + 30_000),
+        (0, Some(DropReason::BadSignature))
+    );
+    // A link with another key has a state of its own: the frame is not signed with its key.
+    let mut stranger = Signer::new(SecretKey::new([9; 32]), 3);
+    let own = signed_heartbeat(&mut stranger, now, 1);
+    let alone = r.open_link(signing(SecretKey::new([9; 32]))).unwrap();
+    assert_eq!(one(&mut r, alone, &own, now + 40_000).1, None);
+    assert_eq!(
+        one(&mut r, alone, &command, now + 50_000),
+        (0, Some(DropReason::BadSignature))
+    );
 }
 
 proptest! {

@@ -41,6 +41,7 @@ use std::time::Duration;
 
 use ferrolink_runtime::mavlink::router::{ByteSet, Filter, IdSet, LinkConfig};
 use ferrolink_runtime::mavlink::signing::SecretKey;
+use ferrolink_runtime::mavlink::v2;
 use serde::Deserialize;
 
 use crate::link::{Endpoint, OutputQueue, Overflow};
@@ -196,13 +197,7 @@ fn queue(
     }
     let default = crate::link::DAEMON_QUEUE;
     let bytes = bytes.unwrap_or(default.bytes);
-    if bytes == 0 {
-        return Err(error(
-            "queue_bytes = 0: no frame would fit\n  hint: give the bytes a slow peer may have \
-             waiting, e.g. 65536 (the default)"
-                .into(),
-        ));
-    }
+    queue_fits(bytes, "queue_bytes = ").map_err(error)?;
     let overflow = match drop {
         Some(QueueDrop::Oldest) => Overflow::DropOldest,
         Some(QueueDrop::Newest) => Overflow::DropNewest,
@@ -227,9 +222,30 @@ impl Groups {
     }
 }
 
+/// Whether an output queue of `bytes` holds the largest MAVLink frame; if not, the error, for
+/// the option written `option` (`--queue-bytes ` or `queue_bytes = `).
+pub fn queue_fits(bytes: usize, option: &str) -> Result<(), String> {
+    if bytes >= v2::MAX_FRAME_LEN {
+        return Ok(());
+    }
+    Err(format!(
+        "{option}{bytes}: less than the largest MAVLink frame ({} bytes), which could never be \
+         queued\n  hint: give the bytes a slow peer may have waiting, e.g. {option}65536 (the \
+         default)",
+        v2::MAX_FRAME_LEN
+    ))
+}
+
 fn ids(list: &[u32], at: &str, key: &str) -> Result<IdSet, ConfigError> {
     let mut set = IdSet::EMPTY;
     for &id in list {
+        if id > v2::MAX_MSG_ID {
+            return Err(error(format!(
+                "{at}: {key} lists message id {id}, past the largest a frame carries ({})\n  \
+                 hint: message ids are 24 bits",
+                v2::MAX_MSG_ID
+            )));
+        }
         set.insert(id).map_err(|_| {
             error(format!(
                 "{at}: {key} lists more than {} message ids",
@@ -300,7 +316,6 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
             drop_unknown_ids: e.drop_unknown_ids,
             // Set from the endpoint's kind and place when the router opens its links.
             datagrams: false,
-            signing_domain: 0,
         };
         endpoints.push(EndpointConfig { endpoint, link });
     }

@@ -83,6 +83,8 @@ struct Link {
     name: String,
     sender: Sender,
     tx_errors: u64,
+    /// When it last sent a checked frame (or was given its slot), in Unix µs.
+    heard_us: u64,
 }
 
 /// What the endpoint threads share: they route each read on their own thread, under this lock.
@@ -93,7 +95,8 @@ struct State {
     links: HashMap<PeerId, Link>,
     /// Peers without a slot, with their endpoint: `udpin` senders until a datagram proves them,
     /// and peers refused for want of a slot. Offered one at their next (proven) read.
-    waiting: HashMap<PeerId, (usize, String, Sender)>,
+    /// With each, its endpoint, name and sender, and whether it was refused (and said so).
+    waiting: HashMap<PeerId, (usize, String, Sender, bool)>,
     /// Parses datagrams of peers on probation.
     probe: Parser<{ v2::MAX_FRAME_LEN }, Arc<[MessageMeta]>>,
     /// Datagrams from peers on probation that held no checked frame.
@@ -102,6 +105,9 @@ struct State {
     tlog: Option<tlog::Writer<BufWriter<File>>>,
     tlog_error: Option<io::Error>,
     refused: u64,
+    /// How long a TCP client may go without a checked frame before its slot can be given to
+    /// a newcomer when none is free, in µs (the peer expiry).
+    quiet_us: u64,
 }
 
 impl State {
@@ -114,19 +120,20 @@ impl State {
                 sender,
             } => {
                 if self.on_probation(endpoint) {
-                    self.waiting.insert(peer, (endpoint, name, sender));
+                    self.waiting.insert(peer, (endpoint, name, sender, false));
                 } else {
-                    self.admit(endpoint, peer, name, sender);
+                    self.admit(endpoint, peer, name, sender, false);
                 }
             }
             Event::Rx { peer, bytes, at } => {
-                if let Some((endpoint, name, sender)) = self.waiting.remove(&peer) {
+                if let Some((endpoint, name, sender, refused)) = self.waiting.remove(&peer) {
                     if self.on_probation(endpoint) && !self.proves(bytes) {
                         self.junk_datagrams += 1;
-                        self.waiting.insert(peer, (endpoint, name, sender));
+                        self.waiting.insert(peer, (endpoint, name, sender, refused));
                         return;
                     }
-                    self.admit(endpoint, peer, name, sender);
+                    // A peer refused before is not reported refused again, however much it sends.
+                    self.admit(endpoint, peer, name, sender, refused);
                 }
                 let Some(from) = self.links.get(&peer).map(|l| l.slot) else {
                     return;
@@ -141,10 +148,13 @@ impl State {
                     tlog_error,
                     ..
                 } = self;
+                let mut checked = false;
                 router.receive(from, bytes, rx_us, now_us, |routed| {
-                    if let Some(log) = tlog {
+                    checked |= routed.frame.is_checked();
+                    // After a write error, nothing more: a record half written stays the last.
+                    if let (Some(log), None) = (tlog.as_mut(), tlog_error.as_ref()) {
                         if let Err(e) = log.write(rx_us, routed.bytes) {
-                            tlog_error.get_or_insert(e);
+                            *tlog_error = Some(e);
                         }
                     }
                     let mut to = routed.to;
@@ -163,6 +173,9 @@ impl State {
                         }
                     }
                 });
+                if let Some(link) = links.get_mut(&peer).filter(|_| checked) {
+                    link.heard_us = now_us;
+                }
             }
             Event::Down { peer, why } => {
                 self.waiting.remove(&peer);
@@ -177,15 +190,11 @@ impl State {
 }
 
 impl State {
-    /// Adds an endpoint and returns its number. Every peer of it shares its replay state (past
-    /// 255 endpoints, each peer has its own).
-    fn add_endpoint(&mut self, link: LinkConfig, probation: bool) -> usize {
+    /// Adds an endpoint and returns its number. Every link with its signing key (its peers,
+    /// and those of other endpoints with the same key) shares one replay state.
+    fn add_endpoint(&mut self, link: LinkConfig, peers: Peers) -> usize {
         let index = self.endpoints.len();
-        let link = LinkConfig {
-            signing_domain: u8::try_from(index + 1).unwrap_or(0),
-            ..link
-        };
-        self.endpoints.push(Some(EndpointState { link, probation }));
+        self.endpoints.push(Some(EndpointState { link, peers }));
         index
     }
 
@@ -211,7 +220,40 @@ impl State {
     }
 
     fn on_probation(&self, endpoint: usize) -> bool {
-        matches!(self.endpoints.get(endpoint), Some(Some(e)) if e.probation)
+        matches!(self.endpoints.get(endpoint), Some(Some(e)) if e.peers == Peers::OnProbation)
+    }
+
+    /// Closes the TCP client that has gone longest without a checked frame, if that is longer
+    /// than `quiet_us`, so that a newcomer can have its slot when none is free: idle
+    /// connections (a listen-only client, or a flood of them) cannot hold every slot. Returns
+    /// whether it closed one.
+    fn make_room(&mut self) -> bool {
+        let now_us = unix_us();
+        let endpoints = &self.endpoints;
+        let Some((&peer, _)) = self
+            .links
+            .iter()
+            .filter(|(_, l)| {
+                matches!(endpoints.get(l.endpoint), Some(Some(e)) if e.peers == Peers::Clients)
+            })
+            .filter(|(_, l)| now_us.saturating_sub(l.heard_us) >= self.quiet_us)
+            .min_by_key(|(_, l)| l.heard_us)
+        else {
+            return false;
+        };
+        let Some(link) = self.links.remove(&peer) else {
+            return false;
+        };
+        link.sender.close();
+        self.router.close_link(link.slot);
+        self.by_slot[link.slot] = None;
+        eprintln!(
+            "link closed to make room: {}: no checked frame from it for {} s, and all \
+             {MAX_LINKS} links in use",
+            link.name,
+            now_us.saturating_sub(link.heard_us) / 1_000_000
+        );
+        true
     }
 
     /// Whether a datagram holds a frame whose checksum checks.
@@ -224,15 +266,27 @@ impl State {
         checked
     }
 
-    /// Gives a peer a link slot; without a free one, it waits for one (see `waiting`). Returns
-    /// whether it got one.
-    fn admit(&mut self, endpoint: usize, peer: PeerId, name: String, sender: Sender) -> bool {
+    /// Gives a peer a link slot; without a free one, it waits for one (see `waiting`), and the
+    /// refusal is counted and reported unless the peer was `refused` before. Returns whether it
+    /// got one.
+    fn admit(
+        &mut self,
+        endpoint: usize,
+        peer: PeerId,
+        name: String,
+        sender: Sender,
+        refused: bool,
+    ) -> bool {
         let Some(Some(config)) = self.endpoints.get(endpoint) else {
             // A peer of an endpoint a reload just removed.
             sender.close();
             return false;
         };
-        let Some(slot) = self.router.open_link(config.link.clone()) else {
+        let link = config.link.clone();
+        let opened = self.router.open_link(link.clone());
+        let Some(slot) =
+            opened.or_else(|| self.make_room().then(|| self.router.open_link(link))?)
+        else {
             if sender.close() {
                 // A TCP client: closed at once, so it holds no thread or descriptor here; it
                 // may connect again.
@@ -240,11 +294,11 @@ impl State {
                 eprintln!("link refused and closed: {name}: all {MAX_LINKS} links in use");
                 return false;
             }
-            if !self.waiting.contains_key(&peer) {
+            if !refused {
                 self.refused += 1;
                 eprintln!("link refused for now: {name}: all {MAX_LINKS} links in use");
             }
-            self.waiting.insert(peer, (endpoint, name, sender));
+            self.waiting.insert(peer, (endpoint, name, sender, true));
             return false;
         };
         self.by_slot[slot] = Some(peer);
@@ -257,6 +311,7 @@ impl State {
                 name,
                 sender,
                 tx_errors: 0,
+                heard_us: unix_us(),
             },
         );
         true
@@ -293,8 +348,20 @@ impl State {
 struct EndpointState {
     /// The configuration of each of its links.
     link: LinkConfig,
-    /// Whether its peers wait for a proven datagram (`udpin`).
-    probation: bool,
+    /// How its peers are admitted.
+    peers: Peers,
+}
+
+/// How the peers of an endpoint are given link slots.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Peers {
+    /// At once, and kept: the endpoint's one peer (a device, a pty, a `tcpout` server, Zenoh).
+    Kept,
+    /// At once, but a client that sends no checked frame for the peer expiry loses its slot
+    /// to a newcomer when none is free (`tcpin`).
+    Clients,
+    /// Only once they send a datagram with a checked frame (`udpin`); they expire when quiet.
+    OnProbation,
 }
 
 fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
@@ -350,8 +417,12 @@ fn open_endpoint(
         datagrams: endpoint.endpoint.is_datagrams(),
         ..endpoint.link.clone()
     };
-    let probation = matches!(endpoint.endpoint, link::Endpoint::UdpIn(..));
-    let index = lock(state).add_endpoint(link, probation);
+    let peers = match endpoint.endpoint {
+        link::Endpoint::UdpIn(..) => Peers::OnProbation,
+        link::Endpoint::TcpIn(..) => Peers::Clients,
+        _ => Peers::Kept,
+    };
+    let index = lock(state).add_endpoint(link, peers);
     let shared = state.clone();
     let sink: link::Sink = Arc::new(move |event| {
         lock(&shared).handle(event);
@@ -415,6 +486,9 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
     run_reloading(config, attached, stop, None)
 }
 
+/// The shortest time between two statistics tables.
+const MIN_STATS_EVERY: Duration = Duration::from_millis(100);
+
 /// [`run`], reloading the endpoints whenever `reload` is requested. Nothing else of the
 /// configuration changes on a reload: the dialects, the logs, the peer expiry and the queues
 /// stay as they were at the start.
@@ -433,6 +507,16 @@ pub fn run_reloading(
             "peer expiry 0 s: every UDP peer would be forgotten at once\n  hint: give the \
              seconds a UDP peer may be quiet before it is forgotten, e.g. --peer-expiry 10 (the \
              default)",
+        ));
+    }
+    if config.stats_every.is_some_and(|d| d < MIN_STATS_EVERY) {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "--stats {}: the table would be printed without pause\n  hint: give the seconds \
+                 between tables, e.g. --stats 1 (0.1 at the least)",
+                config.stats_every.unwrap_or_default().as_secs_f64()
+            ),
         ));
     }
     let queue = config.queue.unwrap_or(link::DAEMON_QUEUE);
@@ -471,6 +555,7 @@ pub fn run_reloading(
         tlog,
         tlog_error: None,
         refused: 0,
+        quiet_us: options.peer_expiry.as_micros() as u64,
     }));
     let mut opened = Vec::new();
     for endpoint in &config.endpoints {
@@ -479,7 +564,7 @@ pub fn run_reloading(
     let mut guards = Vec::new();
     let count = config.endpoints.len() + attached.len();
     for endpoint in attached {
-        let i = lock(&state).add_endpoint(endpoint.link.clone(), false);
+        let i = lock(&state).add_endpoint(endpoint.link.clone(), Peers::Kept);
         let shared = state.clone();
         let sink: link::Sink = Arc::new(move |event| {
             lock(&shared).handle(event);
@@ -504,6 +589,8 @@ pub fn run_reloading(
     let deadline = config.run_for.map(|d| start + d);
     let mut next_json = start + Duration::from_secs(1);
     let mut next_table = config.stats_every.map(|d| start + d);
+    // The first output given up (see `give_up`).
+    let mut failed = None;
     loop {
         let now = Instant::now();
         if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| now >= d) {
@@ -547,19 +634,28 @@ pub fn run_reloading(
         }
         let now = Instant::now();
         let mut s = lock(&state);
+        // A log or statistics output that fails (a full disk, a closed pipe) is reported and
+        // given up; routing goes on.
         if let Some(e) = s.tlog_error.take() {
-            return Err(io::Error::new(e.kind(), format!("writing the tlog: {e}")));
+            s.tlog = None;
+            failed.get_or_insert(give_up("--tlog", config.tlog.as_deref(), &e));
         }
         if now >= next_json {
             if let Some(out) = &mut stats_json {
-                write_json(out, &s)?;
+                if let Err(e) = write_json(out, &s) {
+                    stats_json = None;
+                    failed.get_or_insert(give_up("--stats-json", config.stats_json.as_deref(), &e));
+                }
             }
             next_json += Duration::from_secs(1);
         }
         if let (Some(every), Some(at)) = (config.stats_every, next_table) {
             if now >= at {
-                print_table(&s)?;
                 next_table = Some(at + every);
+                if let Err(e) = print_table(&s) {
+                    next_table = None;
+                    failed.get_or_insert(give_up("--stats", None, &e));
+                }
             }
         }
     }
@@ -570,13 +666,27 @@ pub fn run_reloading(
     std::thread::sleep(Duration::from_millis(250));
     let mut s = lock(&state);
     if let Some(out) = &mut stats_json {
-        write_json(out, &s)?;
-        out.flush()?;
+        if let Err(e) = write_json(out, &s).and_then(|()| out.flush()) {
+            failed.get_or_insert(give_up("--stats-json", config.stats_json.as_deref(), &e));
+        }
     }
-    if let Some(log) = &mut s.tlog {
-        log.flush()?;
+    let log_error = s.tlog_error.take();
+    if let Some(e) = log_error.or_else(|| s.tlog.as_mut().and_then(|l| l.flush().err())) {
+        failed.get_or_insert(give_up("--tlog", config.tlog.as_deref(), &e));
     }
-    Ok(())
+    // An output given up makes the exit status say so, once everything else is done.
+    failed.map_or(Ok(()), Err)
+}
+
+/// The error of the output of `option` (written to `path`, else to stdout) that failed with
+/// `e`: said on stderr at once, since routing goes on without that output.
+fn give_up(option: &str, path: Option<&std::path::Path>, e: &io::Error) -> io::Error {
+    let to = path.map_or_else(|| "stdout".to_owned(), |p| p.display().to_string());
+    eprintln!("{option} {to}: {e}; no more is written to it, routing goes on");
+    io::Error::new(
+        e.kind(),
+        format!("{option} {to}: {e} (given up while routing)"),
+    )
 }
 
 fn no_endpoints() -> io::Error {

@@ -101,8 +101,6 @@ fn config(bits: u8) -> LinkConfig {
         dedup_window_us: if bits & 0x04 != 0 { 100_000 } else { 0 },
         drop_unknown_ids: bits & 0x08 != 0,
         require_signing: (bits & 0x10 != 0).then(|| SecretKey::new([7; 32])),
-        // Links of one group share a signing domain, as the peers of one endpoint do.
-        signing_domain: bits & 0x03,
         datagrams: bits & 0x80 != 0,
         ..LinkConfig::default()
     };

@@ -187,11 +187,6 @@ pub struct LinkConfig<Rules = Filter> {
     /// Accept only frames signed with this key (unsigned, badly signed and replayed frames are
     /// dropped).
     pub require_signing: Option<SecretKey>,
-    /// Links with the same non-zero domain share one replay state, which outlives them: give
-    /// every peer of one endpoint the same domain, so that a frame replayed from a new UDP
-    /// port, a new TCP connection or a reopened device is still a replay. With 0, a link has
-    /// its own state, started afresh when it opens.
-    pub signing_domain: u8,
     /// Drop frames whose message id is missing from the table. By default they are passed
     /// through, unchecked (their checksum needs the CRC_EXTRA the table lacks), as broadcasts;
     /// they never teach a route.

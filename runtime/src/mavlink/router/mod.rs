@@ -29,9 +29,10 @@
 //! - **Signing at the edge.** A link with [`LinkConfig::require_signing`] drops unsigned frames,
 //!   bad signatures and replays. Signed frames are always forwarded untouched; the router never
 //!   signs anything, so traffic from an untrusted link is never made trusted. Replays are told
-//!   by the spec's key, (link id, system, component) with its last timestamp, kept per
-//!   [`LinkConfig::signing_domain`]: every peer of one endpoint shares it, and it outlives them,
-//!   so a frame replayed from a new port or connection is still a replay.
+//!   by the spec's key, (link id, system, component) with its last timestamp, kept per signing
+//!   key: every link with the same key shares it, and it outlives them, so a frame replayed
+//!   from a new port or connection, or into another link that takes the same key, is still a
+//!   replay.
 //! - **Bounded storage.** Routes age out after [`Router::set_route_ttl_us`] (10 s by default;
 //!   their slots are freed at most every 100 ms while routing, and on [`Router::expire`]). A
 //!   full route or source table evicts its oldest entry, counts it, and keeps working.
@@ -185,11 +186,9 @@ struct State<
     Rules,
 > {
     links: [Link<Rules>; LINKS],
-    /// Replay states: one per signing domain, kept after its links close. There is always a
+    /// Replay states: one per signing key, kept after its links close. There is always a
     /// free or unused entry for a link being opened, since fewer than `LINKS` are open then.
     signing: [Option<Verifier<SIGNING_STREAMS>>; LINKS],
-    /// The domain of each replay state (0: a single link's).
-    signing_domains: [u8; LINKS],
     routes: [Option<Route>; ROUTES],
     /// Every route is in `routes[..routes_end]`: the scans for each frame stop there, not at
     /// `ROUTES`.
@@ -231,7 +230,6 @@ impl<
             state: State {
                 links: core::array::from_fn(|_| Link::default()),
                 signing: core::array::from_fn(|_| None),
-                signing_domains: [0; LINKS],
                 routes: [None; ROUTES],
                 routes_end: 0,
                 sources: [None; SOURCES],
@@ -256,7 +254,7 @@ impl<
 
     /// Opens a link in the first free slot and returns its index, or `None` when all `LINKS` are in
     /// use. Its counters start at zero; a link that requires signing joins the replay state of
-    /// its [`LinkConfig::signing_domain`].
+    /// its key.
     pub fn open_link(&mut self, config: LinkConfig<Rules>) -> Option<usize> {
         let index = self.state.links.iter().position(|l| !l.open)?;
         let parser = self.parsers.get_mut(index)?;
@@ -265,7 +263,7 @@ impl<
         let signing = config
             .require_signing
             .as_ref()
-            .and_then(|key| self.state.signing_entry(config.signing_domain, key));
+            .and_then(|key| self.state.signing_entry(key));
         *self.state.links.get_mut(index)? = Link {
             open: true,
             signing,
@@ -401,34 +399,25 @@ impl<
         Rules: LinkFilter,
     > State<LINKS, ROUTES, SOURCES, DEDUP, Rules>
 {
-    /// The replay state for a new link of `domain` checking `key`: the domain's own (a new one
-    /// if the key changed), else a free entry, else one no open link uses (those of closed
-    /// single links first).
-    fn signing_entry(&mut self, domain: u8, key: &SecretKey) -> Option<u8> {
-        let (signing, domains) = (&self.signing, &self.signing_domains);
-        let used = |i: usize| signing.get(i).is_some_and(Option::is_some);
-        let own = (domain != 0)
-            .then(|| (0..LINKS).find(|&i| used(i) && domains.get(i) == Some(&domain)))
-            .flatten();
-        let links = &self.links;
+    /// The replay state for a new link checking `key`: the one of the links with the same key
+    /// (kept since the last of them closed, too), else a free entry, else one no open link
+    /// uses.
+    fn signing_entry(&mut self, key: &SecretKey) -> Option<u8> {
+        let (signing, links) = (&self.signing, &self.links);
+        let key_of = |i: usize| signing.get(i).and_then(Option::as_ref).map(Verifier::key);
         let unused = |i: &usize| {
             !links
                 .iter()
                 .any(|l| l.open && l.signing == u8::try_from(*i).ok())
         };
-        let i = own
-            .or_else(|| (0..LINKS).find(|&i| !used(i)))
-            .or_else(|| {
-                (0..LINKS)
-                    .filter(unused)
-                    .find(|&i| domains.get(i) == Some(&0))
-            })
+        let i = (0..LINKS)
+            .find(|&i| key_of(i) == Some(key))
+            .or_else(|| (0..LINKS).find(|&i| key_of(i).is_none()))
             .or_else(|| (0..LINKS).find(unused))?;
         let entry = self.signing.get_mut(i)?;
-        if own != Some(i) || entry.as_ref().map(Verifier::key) != Some(key) {
+        if entry.as_ref().map(Verifier::key) != Some(key) {
             *entry = Some(Verifier::new(key.clone()));
         }
-        *self.signing_domains.get_mut(i)? = domain;
         u8::try_from(i).ok()
     }
 
