@@ -167,7 +167,7 @@ Colour = blue
 fn main_conf_errors_say_where() {
     let err = |text: &str| from_main_conf(text).unwrap_err().to_string();
     insta::assert_snapshot!(err("[UdpEndpoint a]\nPort = 99999\n"), @r#"[UdpEndpoint a] Port = "99999": not a port"#);
-    insta::assert_snapshot!(err("[UdpEndpoint a]\nMode = Sideways\nPort = 1\n"), @r#"[UdpEndpoint a] Mode = "sideways": expected Normal, Server or Eavesdropping"#);
+    insta::assert_snapshot!(err("[UdpEndpoint a]\nMode = Sideways\nPort = 1\n"), @r#"[UdpEndpoint a] Mode = "sideways": expected Normal, Client, Server or Eavesdropping"#);
     insta::assert_snapshot!(err("[UartEndpoint a]\nBaud = 1\n"), @"[UartEndpoint a]: Device is missing");
     // Found by fuzzing: an empty value is no device or address either.
     insta::assert_snapshot!(err("[UartEndpoint a]\nDevice = \n"), @"[UartEndpoint a]: Device is missing");
@@ -175,6 +175,9 @@ fn main_conf_errors_say_where() {
     insta::assert_snapshot!(err("[UartEndpoint a]\nDevice = /dev/ttyS1\nBaud = 0\n"), @r#"[UartEndpoint a] Baud = "0": not a baud rate"#);
     insta::assert_snapshot!(err("[UdpEndpoint a]\nAddress = 10.0.0.1]\nPort = 1\n"), @r#"[UdpEndpoint a] Address = "10.0.0.1]": not a host"#);
     insta::assert_snapshot!(err("[TcpEndpoint a]\nAddress = \nPort = 1\n"), @"[TcpEndpoint a]: Address is missing");
-    insta::assert_snapshot!(err("[UdpEndpoint a\nPort = 1\n"), @r#"3:1: expecting "[Some(']')]" but found EOF."#);
+    insta::assert_snapshot!(err("[General]\n[UdpEndpoint a\nPort = 1\n"), @r#"
+    2:1: "[UdpEndpoint a": a section header without its closing ]
+      hint: write it as [UdpEndpoint a]
+    "#);
     insta::assert_snapshot!(err("[UdpEndpoint a]\nPort = 1\nAllowMsgIdOut = 1,x\n"), @r#"[UdpEndpoint a] allowmsgidout: "x" is not a valid number"#);
 }

@@ -339,6 +339,18 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
 
 /// Reads mavlink-router's `main.conf`.
 pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
+    // A section header left open is told where it is, not where the parser ran out of text.
+    for (i, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.starts_with('[') && !line.contains(']') {
+            return Err(ConfigError {
+                line_col: Some((i + 1, 1)),
+                message: format!(
+                    "{line:?}: a section header without its closing ]\n  hint: write it as {line}]"
+                ),
+            });
+        }
+    }
     let ini = ini::Ini::load_from_str_opt(
         text,
         ini::ParseOption {
@@ -438,11 +450,9 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                 match get("mode").map(str::to_ascii_lowercase).as_deref() {
                     Some("server" | "eavesdropping") => Some(Endpoint::UdpIn(address, port)),
                     Some("normal" | "client") | None => Some(Endpoint::UdpOut(address, port)),
-                    Some(other) => {
-                        return Err(error(format!(
-                            "{at} Mode = {other:?}: expected Normal, Server or Eavesdropping"
-                        )))
-                    }
+                    Some(other) => return Err(error(format!(
+                        "{at} Mode = {other:?}: expected Normal, Client, Server or Eavesdropping"
+                    ))),
                 }
             }
             "tcpendpoint" => {
