@@ -450,9 +450,11 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                 match get("mode").map(str::to_ascii_lowercase).as_deref() {
                     Some("server" | "eavesdropping") => Some(Endpoint::UdpIn(address, port)),
                     Some("normal" | "client") | None => Some(Endpoint::UdpOut(address, port)),
-                    Some(other) => return Err(error(format!(
+                    Some(other) => {
+                        return Err(error(format!(
                         "{at} Mode = {other:?}: expected Normal, Client, Server or Eavesdropping"
-                    ))),
+                    )))
+                    }
                 }
             }
             "tcpendpoint" => {
