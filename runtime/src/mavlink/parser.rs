@@ -637,6 +637,15 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
             Ok(meta) => meta,
             Err(why) => return Eval::Reject(why),
         };
+        // A MAVLink 1 frame carries a known message's base fields alone, never more than its
+        // longest payload: one that claims more cannot pass its checksum, so it is refused now
+        // rather than after waiting for up to 261 bytes (a stray 0xFE before 0xFD would hold
+        // back the frames behind it for as long on a quiet link).
+        if let Some((at, _)) = meta {
+            if self.resolve(at).is_some_and(|m| head[1] > m.max_len) {
+                return Eval::Reject(Reject::BadCrc);
+            }
+        }
         let body = v1::HEADER_LEN + usize::from(head[1]);
         let total = body + v1::CHECKSUM_LEN;
         let Some(frame) = c.get(..total) else {
@@ -847,6 +856,21 @@ mod tests {
         }
     }
 
+    /// A stray 0xFE before a frame reads as a MAVLink 1 header of a known message claiming 253
+    /// bytes: it is refused at once, and the frame behind it comes out without waiting for 261
+    /// bytes more.
+    #[test]
+    fn a_v1_header_longer_than_its_message_holds_nothing_back() {
+        let mut stream = std::vec![0xFE];
+        stream.extend(hex(GOLDEN_V2));
+        let mut p = P::for_dialect::<TestDialect>();
+        assert_eq!(stream[5], 0, "the header reads as HEARTBEAT's");
+        let got = collect(&mut p, &stream, stream.len());
+        assert_eq!(got, [(hex(GOLDEN_V2), true)]);
+        assert_eq!(p.buffered(), 0);
+        assert_eq!(p.stats().bad_crc, 1);
+    }
+
     #[test]
     fn frames_decode_and_carry_signatures() {
         let signed = hex(GOLDEN_SIGNED);
@@ -926,24 +950,27 @@ mod tests {
             stream.extend_from_slice(&out[..n]);
             expected.push((out[..n].to_vec(), true));
         }
-        // Also a MAVLink 1 false start right before the end.
+        // The MAVLink 2 false start above hides the frames inside its claimed length until the
+        // stream completes it and its checksum fails.
+        let mut hiding = stream.clone();
+        hiding.truncate(10 + 5 * 21);
+        for chunk in [1, 2, 5, 21, 64, 255, hiding.len()] {
+            let mut p = P::for_dialect::<TestDialect>();
+            assert!(collect(&mut p, &hiding, chunk).is_empty(), "chunk {chunk}");
+            assert_eq!(p.buffered(), hiding.len());
+        }
+        // A MAVLink 1 false start right before the end: a known message claiming more than its
+        // longest payload is refused at once, and the frame after it comes out.
         stream.extend_from_slice(&[0xFE, 0xFF, 0, 1, 1, 0]);
         let n = v1::encode(Header::new(99, 1, 1), &golden_heartbeat(), &mut out).unwrap();
         stream.extend_from_slice(&out[..n]);
+        expected.push((out[..n].to_vec(), true));
         for chunk in [1, 2, 5, 21, 64, 255, stream.len()] {
             let mut p = P::for_dialect::<TestDialect>();
             let got = collect(&mut p, &stream, chunk);
-            // The final MAVLink 1 frame is hidden inside the MAVLink 1 false start's claimed
-            // length, which the stream never completes.
             assert_eq!(got, expected, "chunk {chunk}");
-            assert_eq!(p.stats().bad_crc, 1, "chunk {chunk}");
-            assert_eq!(p.buffered(), 6 + 17);
-            // A frame completing the false start's length makes it fail and frees the frame.
-            let filler = [0u8; 255];
-            let got = collect(&mut p, &filler, chunk);
-            assert_eq!(got.len(), 1);
-            assert_eq!(got[0].0, out[..n]);
-            assert_eq!(p.stats().bad_crc, 2);
+            assert_eq!(p.stats().bad_crc, 2, "chunk {chunk}");
+            assert_eq!(p.buffered(), 0);
         }
     }
 
