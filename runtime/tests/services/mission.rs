@@ -355,24 +355,7 @@ fn a_client_that_answers_is_not_given_up_while_the_item_due_is_lost() {
 /// lost six times while the client answered every probe.
 #[test]
 fn a_rewinding_client_whose_item_is_lost_again_and_again_is_not_given_up() {
-    let items = plan(100, 0);
-    let mut client = Rewinder {
-        items: items.clone(),
-        next: 0,
-        sent_last: false,
-        asked: false,
-        due: None,
-        count_at: 0,
-        result: None,
-    };
-    let (_, mut vehicle) = pair();
-    let mut sim = Sim::new(7_507_845_791_517_422_188, Faults::BAD_RADIO);
-    let done = sim.run(&mut client, &mut vehicle, 600_000_000, |c, _| {
-        c.result.is_some()
-    });
-    assert!(done, "stuck");
-    assert_eq!(client.result, Some(MavMissionResult::MavMissionAccepted));
-    assert!(same(&vehicle.store.held[0], &items));
+    assert_eq!(upload_to_a_rewinder(7_507_845_791_517_422_188), Ok(()));
 }
 
 #[test]
@@ -631,15 +614,37 @@ proptest! {
     /// later items) is put back in step by the server: the upload completes, item for item.
     #[test]
     fn a_client_that_goes_back_a_step_is_put_back_in_step(seed in any::<u64>()) {
-        let items = plan(100, 0);
-        let mut client = Rewinder { items: items.clone(), next: 0, sent_last: false, asked: false, due: None, count_at: 0, result: None };
-        let (_, mut vehicle) = pair();
-        let mut sim = Sim::new(seed, Faults::BAD_RADIO);
-        let done = sim.run(&mut client, &mut vehicle, 600_000_000, |c, _| c.result.is_some());
-        prop_assert!(done, "stuck");
-        prop_assert_eq!(client.result, Some(MavMissionResult::MavMissionAccepted));
-        prop_assert!(same(&vehicle.store.held[0], &items));
+        prop_assert_eq!(upload_to_a_rewinder(seed), Ok(()));
     }
+}
+
+/// Uploads 100 items through a bad radio (`seed`) from a [`Rewinder`]: `Ok` once the server
+/// took them all, item for item.
+fn upload_to_a_rewinder(seed: u64) -> Result<(), String> {
+    let items = plan(100, 0);
+    let mut client = Rewinder {
+        items: items.clone(),
+        next: 0,
+        sent_last: false,
+        asked: false,
+        due: None,
+        count_at: 0,
+        result: None,
+    };
+    let (_, mut vehicle) = pair();
+    let mut sim = Sim::new(seed, Faults::BAD_RADIO);
+    if !sim.run(&mut client, &mut vehicle, 600_000_000, |c, _| {
+        c.result.is_some()
+    }) {
+        return Err("stuck".into());
+    }
+    if client.result != Some(MavMissionResult::MavMissionAccepted) {
+        return Err(format!("ended with {:?}", client.result));
+    }
+    if !same(&vehicle.store.held[0], &items) {
+        return Err("the mission taken differs".into());
+    }
+    Ok(())
 }
 
 /// MISSION_ITEM_INT `seq` of `items`, from the ground station.
@@ -708,23 +713,5 @@ fn a_probe_answered_in_step_brings_the_due_request_at_once() {
 /// a step unanswered as long as a probe waits now steps back, as probes do.
 #[test]
 fn a_client_that_goes_back_again_while_walked_forward_is_put_back_in_step() {
-    let seed = 10_808_267_977_634_221_220;
-    let items = plan(100, 0);
-    let mut client = Rewinder {
-        items: items.clone(),
-        next: 0,
-        sent_last: false,
-        asked: false,
-        due: None,
-        count_at: 0,
-        result: None,
-    };
-    let (_, mut vehicle) = pair();
-    let mut sim = Sim::new(seed, Faults::BAD_RADIO);
-    let done = sim.run(&mut client, &mut vehicle, 600_000_000, |c, _| {
-        c.result.is_some()
-    });
-    assert!(done, "stuck");
-    assert_eq!(client.result, Some(MavMissionResult::MavMissionAccepted));
-    assert!(same(&vehicle.store.held[0], &items));
+    assert_eq!(upload_to_a_rewinder(10_808_267_977_634_221_220), Ok(()));
 }
