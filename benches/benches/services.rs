@@ -43,6 +43,7 @@ use ferrolink_runtime::mavlink::service::messages::{
 use ferrolink_runtime::mavlink::service::mission::Item;
 use ferrolink_runtime::mavlink::service::param::{Name, Param, Value};
 use ferrolink_runtime::mavlink::service::Address;
+use ferrolink_test_support::free_port;
 
 const PARAMS: usize = 1000;
 const ITEMS: usize = 500;
@@ -171,13 +172,6 @@ impl Drop for Relay {
     }
 }
 
-fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
-
 fn params() -> Vec<Param> {
     (0..PARAMS)
         .map(|i| Param {
@@ -223,7 +217,7 @@ fn time(op: impl FnOnce() -> Result<(), String>) -> Outcome {
 }
 
 fn ours(loss: u32, root: &Path) -> Vec<Outcome> {
-    let port = free_udp_port();
+    let port = free_port();
     let config = vehicle::Config {
         address: Address::new(1, 1),
         autopilot: MavAutopilot::Px4,
@@ -311,7 +305,7 @@ fn script() -> PathBuf {
 }
 
 fn mavsdk(loss: u32, root: &Path, workdir: &Path) -> Option<Vec<Outcome>> {
-    let port = free_udp_port();
+    let port = free_port();
     let mut vehicle: Child = Command::new(python())
         .arg(script())
         .args([

@@ -1,20 +1,12 @@
 //! Real `ferrolink ndlcom bridge` processes: three chained over UDP loopback, and two over a
 //! pseudo-terminal where the machine allows it.
 
-use std::net::UdpSocket;
 use std::process::{Child, Command, Stdio};
 use std::thread::sleep;
 use std::time::Duration;
 
+use ferrolink_test_support::free_port;
 use serde_json::Value;
-
-/// A UDP port nobody uses right now.
-fn free_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
 
 fn bridge(args: &[String]) -> Child {
     Command::new(env!("CARGO_BIN_EXE_ferrolink"))
@@ -182,10 +174,7 @@ fn two_bridges_over_a_pty() {
 
 #[test]
 fn a_tcp_server_interface_serves_every_client() {
-    let port = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port");
+    let port = free_port();
     let server_uri = format!("tcp-listen://127.0.0.1:{port}");
     // H (id 9) listens; B (id 2) and then A (id 1) connect as clients; A pings B through H.
     let h = bridge(&[
@@ -244,10 +233,7 @@ fn a_tcp_server_interface_serves_every_client() {
 #[test]
 fn two_bridges_over_zenoh() {
     for encoding in ["raw", "json"] {
-        let port = std::net::TcpListener::bind("127.0.0.1:0")
-            .and_then(|l| l.local_addr())
-            .map(|a| a.port())
-            .expect("a free port");
+        let port = free_port();
         let prefix = format!("ndl{port}{encoding}");
         let zenoh = |role: &str| {
             format!("zenoh://?mode=peer&{role}=tcp/127.0.0.1:{port}&encoding={encoding}&prefix={prefix}")

@@ -14,18 +14,12 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use ferrolink_runtime::mavlink::{v2, Header};
+use ferrolink_test_support::free_port;
 
 fn heartbeat(sysid: u8) -> Vec<u8> {
     let mut out = [0u8; v2::MAX_FRAME_LEN];
     let n = v2::encode_raw(Header::new(0, sysid, 1), 0, 50, &[0; 9], &mut out).expect("fits");
     out[..n].to_vec()
-}
-
-fn free_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .expect("a free port")
-        .port()
 }
 
 /// Starts the router through `sh` (`prelude` may set up signals, as `nohup` does) and waits

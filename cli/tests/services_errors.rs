@@ -104,10 +104,7 @@ fn unreadable_and_malformed_files() {
 
 #[test]
 fn a_parameter_nobody_answers_for() {
-    let port = {
-        let s = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-        s.local_addr().unwrap().port()
-    };
+    let port = ferrolink_test_support::free_port();
     let mut vehicle = Command::new(env!("CARGO_BIN_EXE_ferrolink"))
         .args(["mavlink", "vehicle", "--run-for", "30"])
         .arg(format!("udpout://127.0.0.1:{port}"))

@@ -279,11 +279,9 @@ fn a_tosnet_ring_over_serial_links() {
 
 #[test]
 fn a_tosnet_ring_over_udp() {
-    let sockets: Vec<std::net::UdpSocket> = (0..3)
-        .map(|_| std::net::UdpSocket::bind("127.0.0.1:0").unwrap())
+    let addrs: Vec<std::net::SocketAddr> = (0..3)
+        .map(|_| ([127, 0, 0, 1], ferrolink_test_support::free_port()).into())
         .collect();
-    let addrs: Vec<_> = sockets.iter().map(|s| s.local_addr().unwrap()).collect();
-    drop(sockets);
     let nodes: Vec<UdpNode> = (0..3)
         .map(|i| UdpNode::bind(node(i as u8 + 1), addrs[i], addrs[(i + 1) % 3]).unwrap())
         .collect();

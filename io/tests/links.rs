@@ -9,6 +9,7 @@ use std::time::{Duration, Instant};
 
 use ferrolink_io::link::{self, PeerId, Sender};
 use ferrolink_io::ndlcom::Interface;
+use ferrolink_test_support::free_port;
 
 /// Longest any single step of a test may take before it counts as hung.
 const PATIENCE: Duration = Duration::from_secs(5);
@@ -110,24 +111,6 @@ impl Opened {
     }
 }
 
-/// Two UDP ports that were free a moment ago (bound together so they differ).
-fn free_udp_ports() -> (u16, u16) {
-    let a = UdpSocket::bind("127.0.0.1:0").unwrap();
-    let b = UdpSocket::bind("127.0.0.1:0").unwrap();
-    (
-        a.local_addr().unwrap().port(),
-        b.local_addr().unwrap().port(),
-    )
-}
-
-fn free_tcp_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 /// Every byte value, with the ones a cooked terminal would eat or translate (CR, LF, ^C, ^D,
 /// ^S/^Q, DEL, the NDLCom flag 0x7E) repeated in a row.
 fn all_bytes() -> Vec<u8> {
@@ -147,7 +130,7 @@ fn exchange(from: &Sender, to: &Opened, peer: PeerId, bytes: &[u8]) {
 
 #[test]
 fn udp_pair_loopback() {
-    let (pa, pb) = free_udp_ports();
+    let (pa, pb) = (free_port(), free_port());
     let a = open(&format!("udp://127.0.0.1:{pa}:{pb}&3,4"));
     let b = open(&format!("udp://127.0.0.1:{pb}:{pa}"));
     // The one peer is up as soon as the endpoint is open, named by the URI.
@@ -181,7 +164,7 @@ fn udp_pair_loopback() {
 
 #[test]
 fn udp_senders_work_on_other_threads() {
-    let (pa, pb) = free_udp_ports();
+    let (pa, pb) = (free_port(), free_port());
     let a = open(&format!("udp://localhost:{pa}:{pb}"));
     let b = open(&format!("udp://127.0.0.1:{pb}:{pa}"));
     let (_, _, aw) = a.up();
@@ -229,7 +212,7 @@ fn udp_port_in_use_is_an_error_naming_the_uri() {
 
 #[test]
 fn tcp_listen_serves_every_client() {
-    let port = free_tcp_port();
+    let port = free_port();
     let server = open(&format!("tcp-listen://127.0.0.1:{port}"));
     server.quiet(Duration::from_millis(100));
 
@@ -279,7 +262,7 @@ fn tcp_listen_serves_every_client() {
 
 #[test]
 fn tcp_client_reconnects() {
-    let port = free_tcp_port();
+    let port = free_port();
     // Nothing listens yet: opening is no error, the client keeps trying.
     let client = open(&format!("tcp://127.0.0.1:{port}"));
     client.quiet(Duration::from_millis(200));
@@ -566,7 +549,7 @@ mod tty {
 
 /// A `udpin` endpoint on a free port whose peers expire after `expiry`.
 fn open_udp_in(expiry: Duration) -> (Opened, u16) {
-    let (port, _) = free_udp_ports();
+    let (port, _) = (free_port(), free_port());
     let (sink, events) = events();
     let options = link::Options {
         peer_expiry: expiry,

@@ -10,10 +10,11 @@ use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, Instant};
 
-use daemon::{free_tcp_port, free_udp_port, heartbeat};
+use daemon::heartbeat;
 use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::router::Config;
 use ferrolink_runtime::mavlink::router::MAX_LINKS;
+use ferrolink_test_support::free_port;
 
 fn peer() -> UdpSocket {
     let s = UdpSocket::bind("127.0.0.1:0").expect("bind");
@@ -24,7 +25,7 @@ fn peer() -> UdpSocket {
 
 #[test]
 fn a_refused_peer_gets_a_slot_once_one_frees() {
-    let port = free_udp_port();
+    let port = free_port();
     let config = Config {
         peer_expiry: Some(Duration::from_millis(800)),
         ..daemon::on(Endpoint::UdpIn("127.0.0.1".into(), port))
@@ -75,7 +76,7 @@ fn a_refused_tcp_client_is_closed() {
     use std::io::Read;
     use std::net::TcpStream;
 
-    let port = free_tcp_port();
+    let port = free_port();
     let router = daemon::start(daemon::on(Endpoint::TcpIn("127.0.0.1".into(), port)));
     let clients: Vec<TcpStream> = (0..MAX_LINKS)
         .map(|_| TcpStream::connect(("127.0.0.1", port)).expect("connect"))
@@ -104,7 +105,7 @@ fn idle_tcp_clients_give_their_slots_to_newcomers() {
     use std::io::{Read, Write};
     use std::net::TcpStream;
 
-    let (tcp, udp) = (free_tcp_port(), free_udp_port());
+    let (tcp, udp) = (free_port(), free_port());
     let mut config = daemon::on(Endpoint::TcpIn("127.0.0.1".into(), tcp));
     config
         .endpoints
@@ -170,7 +171,7 @@ fn idle_tcp_clients_give_their_slots_to_newcomers() {
 /// are slots, and a vehicle and a ground station arriving after them still talk at once.
 #[test]
 fn junk_senders_hold_no_slot() {
-    let port = free_udp_port();
+    let port = free_port();
     let router = daemon::start(daemon::on(Endpoint::UdpIn("127.0.0.1".into(), port)));
     let to = ("127.0.0.1", port);
     let junk: Vec<UdpSocket> = (0..100).map(|_| peer()).collect();

@@ -11,15 +11,16 @@ use std::sync::Arc;
 use std::thread;
 use std::time::Duration;
 
-use daemon::{free_udp_port, heartbeat};
+use daemon::heartbeat;
 use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::EndpointConfig;
 use ferrolink_io::mavlink::router::{self, Config};
+use ferrolink_test_support::free_port;
 
 /// Routes 500 heartbeats from a vehicle to a ground station, then 50 more, 50 ms apart, through
 /// a router configured by `outputs`; returns how many of the 50 arrived and how it ended.
 fn route_with(outputs: impl FnOnce(&mut Config)) -> (usize, std::io::Result<()>) {
-    let (p_vehicle, p_gcs) = (free_udp_port(), free_udp_port());
+    let (p_vehicle, p_gcs) = (free_port(), free_port());
     let mut config = daemon::on(Endpoint::UdpIn("127.0.0.1".into(), p_vehicle));
     config.endpoints.push(EndpointConfig::new(Endpoint::UdpIn(
         "127.0.0.1".into(),

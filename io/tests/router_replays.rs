@@ -16,12 +16,13 @@ use std::sync::{mpsc, Arc};
 use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use daemon::{free_tcp_port, free_udp_port, heartbeat, HEARTBEAT_ONLY as META};
+use daemon::{heartbeat, HEARTBEAT_ONLY as META};
 use ferrolink_io::link::{self, Endpoint, Sender};
 use ferrolink_io::mavlink::config::EndpointConfig;
 use ferrolink_io::mavlink::router::Config;
 use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
 use ferrolink_runtime::mavlink::{v2, Header};
+use ferrolink_test_support::free_port;
 
 const KEY: [u8; 32] = [7; 32];
 
@@ -90,7 +91,7 @@ fn replays_through_new_peers_of_a_signing_endpoint_are_dropped() {
     let dir = tempfile::tempdir().expect("scratch");
     let tty = dir.path().join("ttyRADIO");
     let (first_device, first_writer) = device(&tty);
-    let (p_vehicle, p_gcs, p_tcp) = (free_udp_port(), free_udp_port(), free_tcp_port());
+    let (p_vehicle, p_gcs, p_tcp) = (free_port(), free_port(), free_port());
     let signing = |endpoint| {
         let mut e = EndpointConfig::new(endpoint);
         e.link.require_signing = Some(SecretKey::new(KEY));

@@ -13,11 +13,12 @@ use std::net::{SocketAddr, TcpStream, UdpSocket};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use daemon::{free_tcp_port, free_udp_port, heartbeat, HEARTBEAT};
+use daemon::{heartbeat, HEARTBEAT};
 use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::EndpointConfig;
 use ferrolink_io::mavlink::router::Config;
 use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
+use ferrolink_test_support::free_port;
 
 /// HEARTBEAT, and a 255-byte broadcast that carries its send time, so that the stalled
 /// client's socket buffers fill within a second.
@@ -56,12 +57,7 @@ fn stalled_client(port: u16) -> TcpStream {
 #[test]
 fn a_client_that_never_reads_slows_no_one() {
     let epoch = Instant::now();
-    let (p_in, p_gcs1, p_gcs2, p_tcp) = (
-        free_udp_port(),
-        free_udp_port(),
-        free_udp_port(),
-        free_tcp_port(),
-    );
+    let (p_in, p_gcs1, p_gcs2, p_tcp) = (free_port(), free_port(), free_port(), free_port());
     let dir = tempfile::tempdir().expect("scratch");
     let stats = dir.path().join("stats.jsonl");
     let udpin = |port| EndpointConfig::new(Endpoint::UdpIn("127.0.0.1".into(), port));

@@ -1,7 +1,6 @@
 //! The blocking client against the software vehicle, in one process over loopback UDP:
 //! parameters with PX4's `_HASH_CHECK` and over PARAM_EXT_*, and files over FTP.
 
-use std::net::UdpSocket;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Duration;
@@ -11,13 +10,7 @@ use ferrolink_io::mavlink::{vehicle, Connection};
 use ferrolink_runtime::mavlink::service::messages::{MavAutopilot, MavType};
 use ferrolink_runtime::mavlink::service::param::{Name, Param, Protocol, Value};
 use ferrolink_runtime::mavlink::service::Address;
-
-fn free_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
+use ferrolink_test_support::free_port;
 
 /// A PX4 vehicle with 40 parameters and `root` as its FTP root, on a thread until `stop`.
 fn vehicle(root: &std::path::Path, stop: &Arc<AtomicBool>) -> (u16, std::thread::JoinHandle<()>) {

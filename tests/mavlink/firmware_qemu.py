@@ -52,7 +52,6 @@ import json
 import os
 import re
 import shutil
-import socket
 import struct
 import subprocess
 import sys
@@ -65,6 +64,7 @@ os.environ.setdefault("MAVLINK20", "1")  # pymavlink: parse MAVLink 2
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from services_mavsdk import (  # noqa: E402
     CheckFailed, compare_items, f32, mavsdk_gcs, mission_spec, read_wpl, write_wpl)
+from ports import free_port  # noqa: E402
 
 HOST = "127.0.0.1"
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -87,21 +87,13 @@ class CheckSkipped(Exception):
     pass
 
 
-def free_udp_port():
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind((HOST, 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
 class Context:
     """What the checks share: the CLI, the router's UDP port, a pymavlink peer, a workdir."""
 
     def __init__(self, args):
         self.ferrolink = args.ferrolink
         self.workdir = args.workdir
-        self.udp = free_udp_port()
+        self.udp = free_port()
         self.uri = "udpout://%s:%d" % (HOST, self.udp)
         self.router = None
         self.mav = None

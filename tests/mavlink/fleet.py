@@ -36,7 +36,6 @@ import argparse
 import json
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import threading
@@ -47,6 +46,7 @@ sys.dont_write_bytecode = True
 os.environ["MAVLINK20"] = "1"
 
 from pymavlink import mavutil  # noqa: E402
+from ports import free_port  # noqa: E402
 
 HOST = "127.0.0.1"
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -61,14 +61,6 @@ class CheckFailed(Exception):
 
 class CheckSkipped(Exception):
     pass
-
-
-def free_port(kind=socket.SOCK_DGRAM):
-    s = socket.socket(socket.AF_INET, kind)
-    s.bind((HOST, 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 class Proc:
@@ -117,7 +109,7 @@ class Fleet:
         os.makedirs(self.dir, exist_ok=True)
         ns_a, ns_b = netns or (None, None)
         self.host_a = "10.77.0.1" if netns else HOST
-        self.zport = free_port(socket.SOCK_STREAM)
+        self.zport = free_port()
         self.udp_a, self.udp_b = free_port(), free_port()
         dialect = os.path.join(args.dialect_dir, "common.xml")
         zenoh_a = "zenoh://?mode=peer&listen=tcp/%s:%d&encoding=%s&prefix=%s" % (

@@ -60,7 +60,6 @@ import math
 import os
 import re
 import signal
-import socket
 import struct
 import subprocess
 import sys
@@ -68,6 +67,8 @@ import threading
 import time
 
 sys.dont_write_bytecode = True  # keep the source tree clean
+from ports import free_port  # noqa: E402
+
 # pymavlink picks its MAVLink 1 or 2 module when mavutil is imported.
 os.environ["MAVLINK20"] = "1"
 
@@ -136,16 +137,6 @@ class CheckFailed(Exception):
 
 class CheckSkipped(Exception):
     pass
-
-
-def free_port(kind):
-    """A port on 127.0.0.1 that is free for `kind` (SOCK_DGRAM or SOCK_STREAM)."""
-    s = socket.socket(socket.AF_INET, kind)
-    try:
-        s.bind((HOST, 0))
-        return s.getsockname()[1]
-    finally:
-        s.close()
 
 
 def now_us():
@@ -361,8 +352,8 @@ def check_mavsdk(args):
     mavsdk_available()
     wd = os.path.join(args.workdir, "mavsdk")
     os.makedirs(wd, exist_ok=True)
-    p_vehicle = free_port(socket.SOCK_DGRAM)
-    p_gcs = free_port(socket.SOCK_DGRAM)
+    p_vehicle = free_port()
+    p_gcs = free_port()
     router = Router(args, "mavsdk", "common.xml",
                     ["udpin://%s:%d" % (HOST, p_vehicle), "udpout://%s:%d" % (HOST, p_gcs)])
     vehicle_events = os.path.join(wd, "vehicle.jsonl")
@@ -675,8 +666,8 @@ def check_mavproxy(args):
     for name in ("mav.parm", "mav.tlog", "mav.tlog.raw"):
         if os.path.exists(os.path.join(state, name)):
             os.remove(os.path.join(state, name))
-    p_vehicle = free_port(socket.SOCK_DGRAM)
-    p_gcs = free_port(socket.SOCK_STREAM)
+    p_vehicle = free_port()
+    p_gcs = free_port()
     router = Router(args, "mavproxy", "ardupilotmega.xml",
                     ["udpin://%s:%d" % (HOST, p_vehicle), "tcpin://%s:%d" % (HOST, p_gcs)])
     vehicle_events = os.path.join(wd, "vehicle.jsonl")

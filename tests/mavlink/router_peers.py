@@ -35,6 +35,7 @@ os.environ["MAVLINK20"] = "1"  # before mavutil is imported: MAVLink 2 everywher
 
 from pymavlink import mavutil  # noqa: E402
 from pymavlink.generator.mavcrc import x25crc  # noqa: E402
+from ports import free_ports  # noqa: E402
 
 mavutil.set_dialect("common")
 mavlink = mavutil.mavlink
@@ -475,20 +476,6 @@ class Router(object):
 # ---------------------------------------------------------------------------
 # Harness
 
-def free_ports(kind, n):
-    """n distinct free loopback ports (socket.SOCK_DGRAM or SOCK_STREAM)."""
-    socks = []
-    try:
-        for _ in range(n):
-            s = socket.socket(socket.AF_INET, kind)
-            s.bind((HOST, 0))
-            socks.append(s)
-        return [s.getsockname()[1] for s in socks]
-    finally:
-        for s in socks:
-            s.close()
-
-
 class Harness(object):
     """What one check owns: its router, its nodes, its scratch directory."""
 
@@ -640,7 +627,7 @@ def udp_peer(port):
 # Checks
 
 def check_broadcast(h):
-    (port,) = free_ports(socket.SOCK_DGRAM, 1)
+    (port,) = free_ports(1)
     h.start_router([udpin(port)])
     v1 = h.mav("vehicle1", udp_peer(port), 1, 1)
     gcs = h.mav("gcs", udp_peer(port), 255, 190, mavlink.MAV_TYPE_GCS)
@@ -653,7 +640,7 @@ def check_broadcast(h):
 
 
 def check_targeted(h):
-    port, v2_port = free_ports(socket.SOCK_DGRAM, 2)
+    port, v2_port = free_ports(2)
     # Vehicle 2 sits behind a udpout endpoint: the router sends to it first.
     v2 = h.mav("vehicle2", "udpin:%s:%d" % (HOST, v2_port), 2, 1)
     h.start_router([udpin(port), "udpout://%s:%d" % (HOST, v2_port)])
@@ -671,7 +658,7 @@ def check_targeted(h):
 
 
 def check_component(h):
-    port, cam_port = free_ports(socket.SOCK_DGRAM, 2)
+    port, cam_port = free_ports(2)
     h.start_router([udpin(port), udpin(cam_port)])
     gcs = h.mav("gcs", udp_peer(port), 255, 190, mavlink.MAV_TYPE_GCS)
     autopilot = h.mav("autopilot", udp_peer(port), 1, 1)
@@ -694,7 +681,7 @@ def check_component(h):
 
 
 def check_unknown_target(h):
-    port, port2 = free_ports(socket.SOCK_DGRAM, 2)
+    port, port2 = free_ports(2)
     h.start_router([udpin(port), udpin(port2)])
     gcs = h.mav("gcs", udp_peer(port), 255, 190, mavlink.MAV_TYPE_GCS)
     v1 = h.mav("vehicle1", udp_peer(port), 1, 1)
@@ -711,7 +698,7 @@ def check_unknown_target(h):
 
 
 def check_unknown_id_and_signed(h):
-    (port,) = free_ports(socket.SOCK_DGRAM, 1)
+    (port,) = free_ports(1)
     h.start_router([udpin(port)])
     # The receiver is a raw socket, so what arrives is compared byte for byte.
     rx = h.raw("receiver", port, 255, 190)
@@ -746,7 +733,7 @@ def check_unknown_id_and_signed(h):
 
 
 def check_garbage_teaches_nothing(h):
-    (port,) = free_ports(socket.SOCK_DGRAM, 1)
+    (port,) = free_ports(1)
     h.start_router([udpin(port)])
     gcs = h.mav("gcs", udp_peer(port), 255, 190, mavlink.MAV_TYPE_GCS)
     v1 = h.mav("vehicle1", udp_peer(port), 1, 1)
@@ -777,7 +764,7 @@ def check_garbage_teaches_nothing(h):
 
 
 def check_two_gcs_one_port(h):
-    port, v_port = free_ports(socket.SOCK_DGRAM, 2)
+    port, v_port = free_ports(2)
     h.start_router([udpin(port), udpin(v_port)])
     gcs_a = h.mav("gcs255", udp_peer(port), 255, 190, mavlink.MAV_TYPE_GCS)
     gcs_b = h.mav("gcs254", udp_peer(port), 254, 190, mavlink.MAV_TYPE_GCS)
@@ -796,7 +783,7 @@ def check_two_gcs_one_port(h):
 
 
 def check_tcpout_reconnect(h):
-    (port,) = free_ports(socket.SOCK_DGRAM, 1)
+    (port,) = free_ports(1)
     srv = h.server()
     tcp_port = srv.port
     h.start_router([udpin(port), "tcpout://%s:%d" % (HOST, tcp_port)])
@@ -824,8 +811,8 @@ def check_tcpout_reconnect(h):
 
 
 def check_tcpin_many(h):
-    (port,) = free_ports(socket.SOCK_DGRAM, 1)
-    (tcp_port,) = free_ports(socket.SOCK_STREAM, 1)
+    (port,) = free_ports(1)
+    (tcp_port,) = free_ports(1)
     h.start_router([udpin(port), "tcpin://%s:%d" % (HOST, tcp_port)])
     tcp_url = "tcp:%s:%d" % (HOST, tcp_port)
     a = h.mav("tcp255", tcp_url, 255, 190, mavlink.MAV_TYPE_GCS)
@@ -838,7 +825,7 @@ def check_tcpin_many(h):
 
 
 def check_tlog(h):
-    (port,) = free_ports(socket.SOCK_DGRAM, 1)
+    (port,) = free_ports(1)
     tlog = os.path.join(h.dir, "x.tlog")
     t_start = time.time()
     router = h.start_router([udpin(port)], ["--tlog", tlog])
@@ -939,7 +926,7 @@ def check_tlog(h):
 
 def check_several_frames_in_one_datagram(h):
     """mavp2p once read only the first frame of a datagram (gomavlib#245)."""
-    a, b = free_ports(socket.SOCK_DGRAM, 2)
+    a, b = free_ports(2)
     h.start_router([udpin(a), udpin(b)])
     src = h.raw("source", a, 1, 1, mavlink.MAV_TYPE_QUADROTOR)
     gcs = h.mav("gcs", udp_peer(b), 255, 190, mavlink.MAV_TYPE_GCS)
@@ -958,7 +945,7 @@ def check_several_frames_in_one_datagram(h):
 
 def check_a_datagram_is_a_boundary(h):
     """A frame cut in two by datagrams is dropped, not joined with the next datagram."""
-    a, b = free_ports(socket.SOCK_DGRAM, 2)
+    a, b = free_ports(2)
     h.start_router([udpin(a), udpin(b)])
     src = h.raw("source", a, 1, 1, mavlink.MAV_TYPE_QUADROTOR)
     gcs = h.mav("gcs", udp_peer(b), 255, 190, mavlink.MAV_TYPE_GCS)
@@ -981,7 +968,7 @@ def burst_through(h, extra):
     """40 COMMAND_LONGs in one datagram into endpoint A; a raw socket on B and pymavlink on C
     must each get all of them, in order.  Returns B's datagrams since the burst, (bytes, frames)
     each."""
-    a, b, c = free_ports(socket.SOCK_DGRAM, 3)
+    a, b, c = free_ports(3)
     h.start_router([udpin(a), udpin(b), udpin(c)], extra)
     src = h.raw("source", a, 1, 1, mavlink.MAV_TYPE_QUADROTOR)
     raw = h.raw("raw_gcs", b, 255, 190, mavlink.MAV_TYPE_GCS)
@@ -1027,7 +1014,7 @@ def check_one_frame_per_datagram(h):
 
 def check_serial(h):
     """A device on a serial line (a pty) and a GCS on UDP, both ways."""
-    (port,) = free_ports(socket.SOCK_DGRAM, 1)
+    (port,) = free_ports(1)
     device = PtyNode("device", 1, 1, mavlink.MAV_TYPE_QUADROTOR)
     h.nodes.append(device)
     h.start_router(["serial://%s:57600" % device.path, udpin(port)])

@@ -75,6 +75,7 @@ import threading
 import time
 
 sys.dont_write_bytecode = True  # keep the source tree clean
+from ports import free_port  # noqa: E402
 
 HOST = "127.0.0.1"
 
@@ -85,14 +86,6 @@ class CheckFailed(Exception):
 
 class CheckSkipped(Exception):
     pass
-
-
-def free_udp_port():
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind((HOST, 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def f32(x):
@@ -342,7 +335,7 @@ async def check_mavsdk_params(args):
     from mavsdk.asyncio.plugins.param import ParamAsync
     notes = []
     for autopilot in ("px4", "ardupilotmega"):
-        port = free_udp_port()
+        port = free_port()
         vehicle = await start_vehicle(args, autopilot, port)
         try:
             mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
@@ -391,7 +384,7 @@ async def select_ext(system):
 
 
 async def check_mavsdk_param_ext(args):
-    port = free_udp_port()
+    port = free_port()
     # A relay that loses nothing, to see which messages MAVSDK speaks.
     relay = Relay((HOST, port), args.seed, loss=0, dup=0, reorder=0)
     vehicle = await start_vehicle(args, "px4", relay.port, params=PARAMS + WIDE)
@@ -440,7 +433,7 @@ async def check_mavsdk_param_ext(args):
 
 
 async def check_our_param_ext(args):
-    port = free_udp_port()
+    port = free_port()
     uri = "udpin://%s:%d" % (HOST, port)
     mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, port),
                                                       extended=True)
@@ -475,7 +468,7 @@ async def check_our_param_ext(args):
 
 async def check_mavsdk_action(args):
     from mavsdk.asyncio.plugins.action import ActionAsync
-    port = free_udp_port()
+    port = free_port()
     vehicle = await start_vehicle(args, "px4", port)
     try:
         mavsdk, system = await mavsdk_gcs("udpin://%s:%d" % (HOST, port))
@@ -567,7 +560,7 @@ def check_list_output(out, who, custom=False):
 
 
 async def check_our_params(args):
-    port = free_udp_port()
+    port = free_port()
     uri = "udpin://%s:%d" % (HOST, port)
     mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, port))
     try:
@@ -593,7 +586,7 @@ async def check_our_params(args):
 
 
 async def check_our_command(args):
-    port = free_udp_port()
+    port = free_port()
     uri = "udpin://%s:%d" % (HOST, port)
     mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, port),
                                                       params=False, action=True)
@@ -619,7 +612,7 @@ async def mavsdk_lists_ours(args, seed, ext):
     """MAVSDK's Param plugin lists our vehicle through the relay (in PARAM_EXT_* when ``ext``,
     with 64-bit parameters among ours)."""
     from mavsdk.asyncio.plugins.param import ParamAsync
-    port = free_udp_port()
+    port = free_port()
     relay = Relay((HOST, port), seed)
     vehicle = await start_vehicle(args, "px4", relay.port, params=PARAMS + WIDE if ext else PARAMS)
     try:
@@ -639,7 +632,7 @@ async def mavsdk_lists_ours(args, seed, ext):
 
 async def we_list_mavsdks(args, seed, ext):
     """``param list`` (``--ext`` when ``ext``) of MAVSDK's ParamServer through the relay."""
-    port = free_udp_port()
+    port = free_port()
     relay = Relay((HOST, port), seed)
     mavsdk, events, tasks, keep = await mavsdk_vehicle("udpout://%s:%d" % (HOST, relay.port),
                                                       extended=ext)
@@ -702,7 +695,7 @@ async def mavsdk_mission_round_trip(system, spec):
 
 
 async def check_mavsdk_mission(args):
-    port = free_udp_port()
+    port = free_port()
     vehicle = await start_vehicle(args, "px4", port)
     spec = mission_spec(20)
     try:
@@ -721,7 +714,7 @@ async def check_mavsdk_mission(args):
 
 
 async def check_our_mission(args):
-    port = free_udp_port()
+    port = free_port()
     uri = "udpin://%s:%d" % (HOST, port)
     spec = mission_spec(20)
     wpl = os.path.join(args.workdir, "mission.waypoints")
@@ -755,7 +748,7 @@ async def check_lossy_mission(args):
     from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync, MissionItem
     notes = []
     spec = mission_spec(100)
-    port = free_udp_port()
+    port = free_port()
     relay = Relay((HOST, port), args.seed + 2)
     vehicle = await start_vehicle(args, "px4", relay.port, seconds=180)
     try:
@@ -780,7 +773,7 @@ async def check_lossy_mission(args):
     finally:
         await stop(vehicle)
         relay.close()
-    port = free_udp_port()
+    port = free_port()
     relay = Relay((HOST, port), args.seed + 3, loss=0.05, dup=0.0, reorder=0.0)
     uri = "udpin://%s:%d" % (HOST, port)
     wpl = os.path.join(args.workdir, "lossy.waypoints")
@@ -841,7 +834,7 @@ async def mavsdk_ftp_download(ftp, remote, local_dir, burst):
 async def check_mavsdk_ftp(args):
     from mavsdk.asyncio.plugins.ftp import FtpAsync
     root, data = ftp_tree(args, "ftp-ours")
-    port = free_udp_port()
+    port = free_port()
     vehicle = await start_vehicle(args, "px4", port, ftp_root=root)
     notes = []
     try:
@@ -938,7 +931,7 @@ async def our_ftp_round_trip(args, uri, root, data, tag, timeout=120):
 
 async def check_our_ftp(args):
     root, data = ftp_tree(args, "ftp-mavsdk")
-    port = free_udp_port()
+    port = free_port()
     mavsdk, keep = await mavsdk_ftp_vehicle("udpout://%s:%d" % (HOST, port), root)
     try:
         get_s, put_s = await our_ftp_round_trip(args, "udpin://%s:%d" % (HOST, port), root,
@@ -953,7 +946,7 @@ async def check_lossy_ftp(args):
     from mavsdk.asyncio.plugins.ftp import FtpAsync
     notes = []
     root, data = ftp_tree(args, "ftp-lossy-mavsdk", big=200_000)
-    port = free_udp_port()
+    port = free_port()
     relay = Relay((HOST, port), args.seed + 4)
     mavsdk, keep = await mavsdk_ftp_vehicle("udpout://%s:%d" % (HOST, relay.port), root)
     try:
@@ -964,7 +957,7 @@ async def check_lossy_ftp(args):
         await mavsdk.__aexit__(None, None, None)
         relay.close()
     root, data = ftp_tree(args, "ftp-lossy-ours", big=200_000)
-    port = free_udp_port()
+    port = free_port()
     relay = Relay((HOST, port), args.seed + 5)
     vehicle = await start_vehicle(args, "px4", relay.port, seconds=300, ftp_root=root)
     try:
@@ -974,7 +967,7 @@ async def check_lossy_ftp(args):
     finally:
         await stop(vehicle)
         relay.close()
-    port = free_udp_port()
+    port = free_port()
     relay = Relay((HOST, port), args.seed + 6, loss=0.05)
     vehicle = await start_vehicle(args, "px4", relay.port, seconds=300, ftp_root=root)
     try:

@@ -26,7 +26,6 @@ import os
 import random
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -34,6 +33,7 @@ import time
 sys.dont_write_bytecode = True  # keep the source tree clean
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import services_mavsdk as base  # noqa: E402  (the shared parameter table and mission spec)
+from ports import free_port  # noqa: E402
 
 HOST = "127.0.0.1"
 
@@ -44,12 +44,6 @@ class CheckFailed(Exception):
 
 class CheckSkipped(Exception):
     pass
-
-
-def free_port(kind):
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind((HOST, 0))
-        return s.getsockname()[1]
 
 
 def start(cmd, log, **kw):
@@ -119,7 +113,7 @@ def check_mavwp(args):
     spec = base.mission_spec(40)
     wpl = os.path.join(args.workdir, "mavwp-in.waypoints")
     base.write_wpl(wpl, spec)
-    port = free_port(socket.SOCK_DGRAM)
+    port = free_port()
     v = vehicle(args, port, "mavwp")
     try:
         m = gcs(port)
@@ -195,7 +189,7 @@ def check_mavftp(args):
     data = random.Random(args.seed).randbytes(300_000)
     with open(os.path.join(root, "big.bin"), "wb") as f:
         f.write(data)
-    port = free_port(socket.SOCK_DGRAM)
+    port = free_port()
     v = vehicle(args, port, "mavftp", ftp_root=root)
     notes = []
     try:
@@ -246,9 +240,9 @@ def check_mavproxy(args):
     state, home, ftp_root = (os.path.join(wd, d) for d in ("state", "home", "ftp"))
     for d in (state, home, ftp_root):
         os.makedirs(d)
-    p_vehicle = free_port(socket.SOCK_DGRAM)
-    p_gcs = free_port(socket.SOCK_STREAM)
-    p_cli = free_port(socket.SOCK_DGRAM)
+    p_vehicle = free_port()
+    p_gcs = free_port()
+    p_cli = free_port()
     router_log = os.path.join(wd, "router.log")
     router = start([args.ferrolink, "mavlink", "router", "udpin://%s:%d" % (HOST, p_vehicle),
                     "tcpin://%s:%d" % (HOST, p_gcs), "udpin://%s:%d" % (HOST, p_cli)],

@@ -5,7 +5,6 @@
 //! `tests/run-all.sh` installs); without one the test says so and passes, unless
 //! `FERROLINK_REQUIRE_PYMAVLINK` is set.
 
-use std::net::UdpSocket;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -31,10 +30,7 @@ fn against(
     url: impl Fn(u16) -> String,
     seconds: u32,
 ) -> (String, String) {
-    let port = UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .expect("a free port")
-        .port();
+    let port = ferrolink_test_support::free_port();
     let companion = Command::new(env!("CARGO_BIN_EXE_ferrolink-example-companion"))
         .args([
             &format!("udpin://127.0.0.1:{port}"),

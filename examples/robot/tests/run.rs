@@ -102,15 +102,13 @@ fn ten_seconds_on_the_can_bus() {
     assert_eq!(sim.leader().appeared, 13);
 }
 
-/// The first of the 16 ports test `slot` runs the robot on: below Linux's ephemeral ports
-/// (32768 and up), so that no port the system hands another test collides with them, and apart
-/// by process and by test, so that test processes running side by side do not share one.
-fn base_port(slot: u16) -> u16 {
+/// The first of 16 free ports to run the robot on: the modules, the upstream and the host.
+fn base_port() -> u16 {
     assert!(
         robot::INSTANCES.len() + 2 <= 16,
         "the modules, the upstream and the host need more than 16 ports"
     );
-    10_000 + (std::process::id() % 700) as u16 * 32 + slot * 16
+    ferrolink_test_support::free_ports(16)
 }
 
 /// The same robot over Ethernet-1 on UDP loopback, one thread per module, for 3 s of wall-clock
@@ -119,7 +117,7 @@ fn base_port(slot: u16) -> u16 {
 #[test]
 fn three_seconds_over_ethernet() {
     use std::sync::atomic::Ordering;
-    let base = base_port(0);
+    let base = base_port();
     let shared = ferrolink_example_robot::ethernet::run(
         base,
         std::time::Duration::from_secs(3),
@@ -156,11 +154,8 @@ fn three_seconds_over_ethernet() {
 fn the_leaders_upstream_on_zenoh() {
     use std::time::{Duration, Instant};
     use zenoh::Wait;
-    let zport = std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port");
-    let base = base_port(1);
+    let zport = ferrolink_test_support::free_port();
+    let base = base_port();
     let prefix = format!("robot{zport}");
     let uri =
         format!("zenoh://?mode=peer&listen=tcp/127.0.0.1:{zport}&encoding=json&prefix={prefix}");

@@ -1,9 +1,8 @@
-//! What the router daemon's tests share: a message table, frames, free ports, and a router
+//! What the router daemon's tests share: a message table, frames, and a router
 //! running in a thread of the test.
 #![allow(dead_code)]
 
 use std::io;
-use std::net::{TcpListener, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::thread;
@@ -32,22 +31,6 @@ pub fn heartbeat(sysid: u8) -> Vec<u8> {
     let mut out = [0u8; v2::MAX_FRAME_LEN];
     let n = v2::encode_raw(Header::new(0, sysid, 1), 0, 50, &[0; 9], &mut out).expect("fits");
     out[..n].to_vec()
-}
-
-/// A UDP port nobody uses now.
-pub fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .and_then(|s| s.local_addr())
-        .expect("a free port")
-        .port()
-}
-
-/// A TCP port nobody uses now.
-pub fn free_tcp_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .expect("a free port")
-        .port()
 }
 
 /// A router on one endpoint that knows HEARTBEAT alone.
