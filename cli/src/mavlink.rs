@@ -35,14 +35,14 @@ pub enum Command {
         #[arg(long, value_name = "FILE")]
         stats_json: Option<PathBuf>,
         /// Print a statistics table every SECS seconds.
-        #[arg(long, value_name = "SECS")]
-        stats: Option<f64>,
+        #[arg(long, value_name = "SECS", value_parser = ferrolink_io::seconds::parse)]
+        stats: Option<Duration>,
         /// Stop after SECS seconds (SIGINT and SIGTERM stop it too, all with status 0).
-        #[arg(long, value_name = "SECS")]
-        run_for: Option<f64>,
-        /// Forget a UDP peer quiet for SECS seconds.
-        #[arg(long, value_name = "SECS", default_value_t = DEFAULT_PEER_EXPIRY)]
-        peer_expiry: f64,
+        #[arg(long, value_name = "SECS", value_parser = ferrolink_io::seconds::parse)]
+        run_for: Option<Duration>,
+        /// Forget a UDP peer quiet for SECS seconds [default: 10].
+        #[arg(long, value_name = "SECS", value_parser = ferrolink_io::seconds::parse)]
+        peer_expiry: Option<Duration>,
         /// The most bytes queued for a TCP, serial or pty peer that reads slower than frames
         /// come for it [default: 65536]; past it, the peer loses frames and no other link waits.
         #[arg(long, value_name = "BYTES")]
@@ -72,8 +72,8 @@ pub enum Command {
     /// List the routers on a Zenoh network: their links and the systems behind them.
     Fleet {
         /// Wait this long for answers.
-        #[arg(long, value_name = "SECS", default_value_t = 2.0)]
-        timeout: f64,
+        #[arg(long, value_name = "SECS", default_value = "2", value_parser = ferrolink_io::seconds::parse)]
+        timeout: Duration,
         /// Print one JSON object per router instead of text.
         #[arg(long)]
         json: bool,
@@ -236,12 +236,8 @@ fn output_queue(
     Ok(queue)
 }
 
-/// The default `--peer-expiry`, in seconds.
-const DEFAULT_PEER_EXPIRY: f64 = 10.0;
-
-fn seconds(s: f64) -> Result<Duration, String> {
-    Duration::try_from_secs_f64(s).map_err(|e| format!("{s} seconds: {e}"))
-}
+/// The default `--peer-expiry`.
+const DEFAULT_PEER_EXPIRY: Duration = Duration::from_secs(10);
 
 pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
     match command {
@@ -285,12 +281,13 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 table,
                 tlog: tlog.or(file.tlog),
                 stats_json: stats_json.or(file.stats_json),
-                stats_every: stats.map(seconds).transpose()?,
-                run_for: run_for.map(seconds).transpose()?,
-                peer_expiry: Some(match file.peer_expiry {
-                    Some(expiry) if peer_expiry == DEFAULT_PEER_EXPIRY => expiry,
-                    _ => seconds(peer_expiry)?,
-                }),
+                stats_every: stats,
+                run_for,
+                peer_expiry: Some(
+                    peer_expiry
+                        .or(file.peer_expiry)
+                        .unwrap_or(DEFAULT_PEER_EXPIRY),
+                ),
                 queue: Some(output_queue(file.queue, queue_bytes, queue_drop)?),
                 one_frame_per_datagram: one_frame_per_datagram
                     || file.one_frame_per_datagram.unwrap_or(false),
@@ -299,7 +296,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             router::run_reloading(&config, attached, &stop, reload)?;
             Ok(ExitCode::SUCCESS)
         }
-        Command::Fleet { timeout, json, uri } => fleet(&uri, seconds(timeout)?, json),
+        Command::Fleet { timeout, json, uri } => fleet(&uri, timeout, json),
         Command::Dump {
             dialect,
             raw,

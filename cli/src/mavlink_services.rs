@@ -55,8 +55,8 @@ pub enum ParamCommand {
         #[command(flatten)]
         target: TargetArg,
         /// Give up after SECS seconds.
-        #[arg(long, value_name = "SECS", default_value_t = 60.0)]
-        timeout: f64,
+        #[arg(long, value_name = "SECS", default_value = "60", value_parser = ferrolink_io::seconds::parse)]
+        timeout: Duration,
         /// Speak PARAM_EXT_* (cameras' and gimbals' protocol, 64-bit values whole) instead of
         /// PARAM_*.
         #[arg(long)]
@@ -194,8 +194,8 @@ pub struct VehicleArgs {
     #[arg(long, value_name = "DIR")]
     ftp_root: Option<PathBuf>,
     /// Stop after SECS seconds (SIGINT and SIGTERM stop it too).
-    #[arg(long, value_name = "SECS")]
-    run_for: Option<f64>,
+    #[arg(long, value_name = "SECS", value_parser = ferrolink_io::seconds::parse)]
+    run_for: Option<Duration>,
     /// udpin://HOST:PORT | udpout://HOST:PORT | tcpin://HOST:PORT | tcpout://HOST:PORT |
     /// serial://PATH[:BAUD] | pty://NAME
     #[arg(required = true, value_name = "ENDPOINT")]
@@ -276,8 +276,6 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
             timeout,
             ext,
         } => {
-            let timeout = Duration::try_from_secs_f64(timeout)
-                .map_err(|e| format!("--timeout {timeout}: {e}"))?;
             let mut link = open(&uri)?;
             let peer = find_target(&mut link, &uri, target)?;
             let mut remote = param_remote(&mut link, peer, ext);
@@ -664,10 +662,7 @@ pub fn vehicle(args: VehicleArgs) -> Result<ExitCode> {
         table: table.into(),
         ftp_root: args.ftp_root,
     };
-    let run_for = args
-        .run_for
-        .map(|s| Duration::try_from_secs_f64(s).map_err(|e| format!("--run-for {s}: {e}")))
-        .transpose()?;
+    let run_for = args.run_for;
     for uri in &args.endpoints {
         ferrolink_io::mavlink::ENDPOINTS.endpoint(uri)?;
     }

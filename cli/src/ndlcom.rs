@@ -45,8 +45,8 @@ pub enum Command {
         #[arg(long, value_name = "ID")]
         ping: Option<u8>,
         /// Ping period in seconds.
-        #[arg(long, default_value_t = 1.0)]
-        ping_every: f64,
+        #[arg(long, value_name = "SECONDS", default_value = "1", value_parser = ferrolink_io::seconds::parse)]
+        ping_every: std::time::Duration,
         /// Also record every frame to this log file.
         #[arg(long, value_name = "FILE")]
         log: Option<PathBuf>,
@@ -85,11 +85,11 @@ pub struct Links {
     #[arg(short = 'm', long = "mirror", value_name = "URI")]
     mirrors: Vec<ferrolink_io::ndlcom::Interface>,
     /// Print statistics, routes and missed packets every this many seconds.
-    #[arg(long, value_name = "SECONDS")]
-    stats: Option<f64>,
+    #[arg(long, value_name = "SECONDS", value_parser = ferrolink_io::seconds::parse)]
+    stats: Option<std::time::Duration>,
     /// Stop after this many seconds (the final statistics are printed).
-    #[arg(long, value_name = "SECONDS")]
-    run_for: Option<f64>,
+    #[arg(long, value_name = "SECONDS", value_parser = ferrolink_io::seconds::parse)]
+    run_for: Option<std::time::Duration>,
     /// Print JSON lines instead of text.
     #[arg(long)]
     json: bool,
@@ -103,11 +103,6 @@ pub enum PrintArg {
     All,
     Own,
     None,
-}
-
-fn seconds(s: Option<f64>) -> Result<Option<std::time::Duration>, String> {
-    s.map(|s| std::time::Duration::try_from_secs_f64(s).map_err(|e| format!("{s} seconds: {e}")))
-        .transpose()
 }
 
 /// An interface: one the link layer opens, or a Zenoh one.
@@ -150,8 +145,8 @@ impl Links {
         let config = ferrolink_io::ndlcom::bridge::Config {
             interfaces,
             mirrors: self.mirrors,
-            stats_every: seconds(self.stats)?,
-            run_for: seconds(self.run_for)?,
+            stats_every: self.stats,
+            run_for: self.run_for,
             json: self.json,
             commands: !self.no_commands,
             names,
@@ -233,7 +228,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                     PrintArg::None => ferrolink_io::ndlcom::bridge::Print::None,
                 },
                 ping,
-                ping_every: seconds(Some(ping_every))?.unwrap_or_default(),
+                ping_every,
                 log,
                 ..config
             };

@@ -80,6 +80,49 @@ fn statistics_without_pause() {
 }
 
 #[test]
+fn seconds_out_of_range() {
+    let out = Command::new(env!("CARGO_BIN_EXE_ferrolink"))
+        .args([
+            "mavlink",
+            "router",
+            "--run-for",
+            "1e300",
+            "udpin://127.0.0.1:0",
+        ])
+        .output()
+        .expect("ferrolink runs");
+    assert_eq!(out.status.code(), Some(2), "a usage error");
+    insta::assert_snapshot!(String::from_utf8_lossy(&out.stderr), @r"
+    error: invalid value '1e300' for '--run-for <SECS>': use a number of seconds from 0 to 1e9 (about 31 years), e.g. 10 or 0.5
+
+    For more information, try '--help'.
+    ");
+}
+
+#[test]
+fn the_same_port_twice() {
+    let port = ferrolink_test_support::free_port();
+    let uri = format!("udpin://127.0.0.1:{port}");
+    let err = refused(&[&uri, &uri]).replace(&port.to_string(), "PORT");
+    insta::assert_snapshot!(err, @r"
+    udpin://127.0.0.1:PORT: Address already in use (os error 98)
+      hint: another program (or another endpoint given here) listens on this port; `ss -lunp` and `ss -ltnp` name it
+    ");
+}
+
+// The hint lists the forms this build accepts, Zenoh's among them.
+#[cfg(feature = "zenoh")]
+#[test]
+fn a_udpout_to_port_zero() {
+    insta::assert_snapshot!(refused(&["udpout://127.0.0.1:0"]), @r"
+    port 0: nothing can be sent to port 0; give the port the peer listens on
+      udpout://127.0.0.1:0
+                         ^
+      hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME, zenoh://?mode=peer|client&listen=tcp/HOST:PORT&connect=tcp/HOST:PORT&encoding=raw|json&prefix=NAME (listen and connect repeat; at least one); pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
+    ");
+}
+
+#[test]
 fn a_filter_with_a_message_id_past_24_bits() {
     let dir = tempfile::tempdir().expect("tempdir");
     let config = dir.path().join("router.toml");

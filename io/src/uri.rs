@@ -351,7 +351,7 @@ impl Grammar {
                 if found.form == Form::UdpIn {
                     Endpoint::UdpIn(host, port)
                 } else {
-                    Endpoint::UdpOut(host, port)
+                    Endpoint::UdpOut(host, p.sent_to(rest, port)?)
                 }
             }
             Form::UdpPair { in_port, out_port } => {
@@ -360,10 +360,11 @@ impl Grammar {
                 if let Some(extra) = fields.get(2) {
                     return Err(p.too_many(extra));
                 }
+                let out = p.port_or(fields.get(1), out_port)?;
                 Endpoint::Udp(
                     host,
                     p.port_or(fields.first(), in_port)?,
-                    p.port_or(fields.get(1), out_port)?,
+                    p.sent_to(fields.get(1).copied().unwrap_or(rest), out)?,
                 )
             }
             Form::TcpIn { host: default } => {
@@ -379,7 +380,7 @@ impl Grammar {
                 let (host, port) = p.host_port(rest, default)?;
                 let host = p.require_host(rest, host)?;
                 let port = port.ok_or_else(|| p.missing_port(rest, host.as_str()))?;
-                Endpoint::TcpOut(host, port)
+                Endpoint::TcpOut(host, p.sent_to(rest, port)?)
             }
             Form::Serial { baud } => p.serial(rest, baud)?,
             Form::Pty => {
@@ -540,6 +541,20 @@ impl<'u> Parts<'u> {
                 self.form.usage()
             ),
         )
+    }
+
+    /// `port`, the port a client sends or connects to, at the end of `part`: 0 is refused (the
+    /// kernel delivers nothing there; binding to 0 means "any port", sending to it is an error
+    /// that would only show as silence).
+    fn sent_to(&self, part: &str, port: u16) -> Result<u16, UriError> {
+        if port != 0 {
+            return Ok(port);
+        }
+        let field = part.rsplit(':').next().unwrap_or(part);
+        Err(self.err(
+            field,
+            "port 0: nothing can be sent to port 0; give the port the peer listens on",
+        ))
     }
 
     /// An optional port field: absent or empty means `default`.

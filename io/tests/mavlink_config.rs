@@ -102,6 +102,11 @@ fn toml_errors_say_where() {
       hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME; pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
     "#);
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nsigning_key = \"abc\"\n"), @"endpoint #1 (udpin://x:1): signing_key must be 64 hex digits");
+    insta::assert_snapshot!(err("[endpoint]\nuri = \"udpin://x:1\"\n"), @r"
+    1:1: invalid type: map, expected a sequence
+      hint: write [[endpoint]], with double brackets, once per endpoint
+    ");
+    insta::assert_snapshot!(err("peer_expiry = 1e300\n[[endpoint]]\nuri = \"udpin://x:1\"\n"), @"peer_expiry = 1e300: use a number of seconds from 0 to 1e9 (about 31 years), e.g. 10 or 0.5");
 }
 
 #[test]

@@ -233,6 +233,8 @@ fn error_messages() {
         "tcp://",
         "tcp://host:1:2",
         "tcp://host:-1",
+        "tcp://host:0",
+        "udp://host:5000:0",
         "tcp-listen://",
         "tcp-listen://5000",
         "tcp-listen://host",
@@ -271,6 +273,8 @@ fn error_messages() {
     tcp:// @6: missing host
     tcp://host:1:2 @13: too many ':' fields: expected tcp://HOST[:PORT]
     tcp://host:-1 @11: bad port "-1": expected 0..=65535
+    tcp://host:0 @11: port 0: nothing can be sent to port 0; give the port the peer listens on
+    udp://host:5000:0 @16: port 0: nothing can be sent to port 0; give the port the peer listens on
     tcp-listen:// @13: missing port
     tcp-listen://5000 @17: missing port (to listen on all interfaces write tcp-listen://:5000)
     tcp-listen://host @17: missing port
@@ -327,6 +331,7 @@ fn errors_point_at_the_offending_part() {
         ("serial:///dev/ttyUSB0:fast", "fast"),
         ("http://example.com", "http"),
         ("tcp-listen://host", ""),
+        ("udp://h:0:0", "0"),
     ] {
         let err = uri.parse::<Interface>().unwrap_err();
         assert_eq!(
@@ -372,4 +377,29 @@ fn one_grammar_many_protocols() {
         (err.message(), err.at()),
         ("bad host \"h&3\": '&' is not allowed in a host name", 8)
     );
+}
+
+#[test]
+fn clients_need_a_port_to_send_to() {
+    use ferrolink_io::mavlink;
+    for (uri, at) in [
+        ("udpout://[::1]:0", 15),
+        ("tcpout://127.0.0.1:0", 19),
+        ("tcp://127.0.0.1:0", 16),
+    ] {
+        let err = mavlink::ENDPOINTS.endpoint(uri).unwrap_err();
+        assert_eq!(err.at(), at, "{uri}: {err}");
+        assert!(
+            err.message().starts_with("port 0: nothing can be sent"),
+            "{err}"
+        );
+    }
+    // Listening on port 0 (any free port) stays allowed.
+    for uri in [
+        "udpin://127.0.0.1:0",
+        "tcpin://127.0.0.1:0",
+        "udp://127.0.0.1:0",
+    ] {
+        assert!(mavlink::ENDPOINTS.endpoint(uri).is_ok(), "{uri}");
+    }
 }

@@ -373,7 +373,16 @@ pub fn open(
     let stop = Arc::new(AtomicBool::new(false));
     let name = endpoint.to_string();
     let uri = name.clone();
-    let context = |e: io::Error| io::Error::new(e.kind(), format!("{uri}: {e}"));
+    let context = |e: io::Error| {
+        let hint = match e.kind() {
+            io::ErrorKind::AddrInUse => {
+                "\n  hint: another program (or another endpoint given here) listens on this \
+                 port; `ss -lunp` and `ss -ltnp` name it"
+            }
+            _ => "",
+        };
+        io::Error::new(e.kind(), format!("{uri}: {e}{hint}"))
+    };
     let mut udp = None;
     let local = match endpoint {
         Endpoint::UdpIn(host, port) => {

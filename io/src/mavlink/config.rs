@@ -271,16 +271,27 @@ fn key(text: &str, at: &str) -> Result<SecretKey, ConfigError> {
 
 /// Reads our TOML form. `base` is the file's folder, for relative dialect paths.
 pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
-    let file: TomlFile = toml::from_str(text).map_err(|e| ConfigError {
-        line_col: e.span().map(|s| {
-            let before = text.get(..s.start).unwrap_or(text);
-            let line_start = before.rfind('\n').map_or(0, |i| i + 1);
-            (
-                before.matches('\n').count() + 1,
-                before[line_start..].chars().count() + 1,
-            )
-        }),
-        message: e.message().to_owned(),
+    let file: TomlFile = toml::from_str(text).map_err(|e| {
+        let at = e.span().and_then(|s| text.get(s.start..)).unwrap_or("");
+        // `[endpoint]` where `[[endpoint]]` was meant: one table, not a list of them.
+        let hint = match at.strip_prefix('[') {
+            Some(rest) if !rest.starts_with('[') && e.message().contains("expected a sequence") => {
+                let name = rest.split(']').next().unwrap_or_default();
+                format!("\n  hint: write [[{name}]], with double brackets, once per {name}")
+            }
+            _ => String::new(),
+        };
+        ConfigError {
+            line_col: e.span().map(|s| {
+                let before = text.get(..s.start).unwrap_or(text);
+                let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+                (
+                    before.matches('\n').count() + 1,
+                    before[line_start..].chars().count() + 1,
+                )
+            }),
+            message: format!("{}{hint}", e.message()),
+        }
     })?;
     let mut groups = Groups::default();
     let mut endpoints = Vec::new();
@@ -322,7 +333,7 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
     let peer_expiry = file
         .peer_expiry
         .map(|s| {
-            Duration::try_from_secs_f64(s).map_err(|e| error(format!("peer_expiry = {s}: {e}")))
+            crate::seconds::from_f64(s).map_err(|e| error(format!("peer_expiry = {s:?}: {e}")))
         })
         .transpose()?;
     Ok(FileConfig {
