@@ -77,6 +77,15 @@ impl std::fmt::Debug for Attached {
     }
 }
 
+/// What the links that closed counted, summed.
+#[derive(Default)]
+struct Closed {
+    links: u64,
+    counters: LinkCounters,
+    tx_errors: u64,
+    tx_dropped: u64,
+}
+
 struct Link {
     endpoint: usize,
     slot: usize,
@@ -105,6 +114,8 @@ struct State {
     tlog: Option<tlog::Writer<BufWriter<File>>>,
     tlog_error: Option<io::Error>,
     refused: u64,
+    /// The totals of links that closed, so that no count is lost with its link.
+    closed: Closed,
     /// How long a TCP client may go without a checked frame before its slot can be given to
     /// a newcomer when none is free, in µs (the peer expiry).
     quiet_us: u64,
@@ -179,10 +190,8 @@ impl State {
             }
             Event::Down { peer, why } => {
                 self.waiting.remove(&peer);
-                if let Some(link) = self.links.remove(&peer) {
-                    self.router.close_link(link.slot);
-                    self.by_slot[link.slot] = None;
-                    eprintln!("link down: {}: {why}", link.name);
+                if let Some((link, totals)) = self.close(peer) {
+                    eprintln!("link down: {}: {why} ({totals})", link.name);
                 }
             }
         }
@@ -241,19 +250,44 @@ impl State {
         else {
             return false;
         };
-        let Some(link) = self.links.remove(&peer) else {
+        let Some((link, totals)) = self.close(peer) else {
             return false;
         };
         link.sender.close();
-        self.router.close_link(link.slot);
-        self.by_slot[link.slot] = None;
         eprintln!(
             "link closed to make room: {}: no checked frame from it for {} s, and all \
-             {MAX_LINKS} links in use",
+             {MAX_LINKS} links in use ({totals})",
             link.name,
             now_us.saturating_sub(link.heard_us) / 1_000_000
         );
         true
+    }
+
+    /// Takes `peer`'s link out: its slot is freed and its counters go into the closed links'
+    /// totals. Returns the link and what it counted, as the log line says it.
+    fn close(&mut self, peer: PeerId) -> Option<(Link, String)> {
+        let link = self.links.remove(&peer)?;
+        let c = self
+            .router
+            .link_counters(link.slot)
+            .copied()
+            .unwrap_or_default();
+        let tx_dropped = link.sender.dropped();
+        let closed = &mut self.closed;
+        closed.links += 1;
+        closed.counters += &c;
+        closed.tx_errors += link.tx_errors;
+        closed.tx_dropped += tx_dropped;
+        self.router.close_link(link.slot);
+        self.by_slot[link.slot] = None;
+        let totals = format!(
+            "received {} frames, sent {}, dropped {} coming in and {} in its queue",
+            c.rx_frames,
+            c.tx_frames.saturating_sub(tx_dropped),
+            c.drops.inbound(),
+            tx_dropped
+        );
+        Some((link, totals))
     }
 
     /// Whether a datagram holds a frame whose checksum checks.
@@ -555,6 +589,7 @@ pub fn run_reloading(
         tlog,
         tlog_error: None,
         refused: 0,
+        closed: Closed::default(),
         quiet_us: options.peer_expiry.as_micros() as u64,
     }));
     let mut opened = Vec::new();
@@ -739,9 +774,15 @@ fn write_json(out: &mut impl Write, state: &State) -> io::Result<()> {
         })
         .collect();
     let r = router.counters();
+    let closed = &state.closed;
+    let mut closed_json = counters_json(&closed.counters);
+    closed_json["links"] = closed.links.into();
+    closed_json["tx_errors"] = closed.tx_errors.into();
+    closed_json["tx_dropped"] = closed.tx_dropped.into();
     let line = json!({
         "t_us": unix_us(),
         "links": links_json,
+        "closed": closed_json,
         "sources": sources,
         "routes": router.routes().count(),
         "routes_evicted": r.routes_evicted,
@@ -775,6 +816,25 @@ fn print_table(state: &State) -> io::Result<()> {
             c.drops.inbound(),
             l.tx_errors,
             l.sender.dropped()
+        )?;
+    }
+    let closed = &state.closed;
+    if closed.links > 0 {
+        let c = &closed.counters;
+        writeln!(
+            out,
+            "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
+            format!(
+                "({} closed link{})",
+                closed.links,
+                if closed.links == 1 { "" } else { "s" }
+            ),
+            c.rx_frames,
+            c.tx_frames,
+            c.crc_failures,
+            c.drops.inbound(),
+            closed.tx_errors,
+            closed.tx_dropped
         )?;
     }
     writeln!(

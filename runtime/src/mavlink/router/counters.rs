@@ -56,6 +56,33 @@ impl Drops {
     }
 }
 
+impl core::ops::AddAssign<&Drops> for Drops {
+    fn add_assign(&mut self, o: &Drops) {
+        self.unsigned += o.unsigned;
+        self.bad_signature += o.bad_signature;
+        self.duplicate += o.duplicate;
+        self.filtered_in += o.filtered_in;
+        self.no_route += o.no_route;
+        self.filtered_out += o.filtered_out;
+        self.late += o.late;
+    }
+}
+
+/// Sums counters: a daemon keeps the totals of links that closed.
+impl core::ops::AddAssign<&LinkCounters> for LinkCounters {
+    fn add_assign(&mut self, o: &LinkCounters) {
+        self.rx_frames += o.rx_frames;
+        self.rx_bytes += o.rx_bytes;
+        self.tx_frames += o.tx_frames;
+        self.tx_bytes += o.tx_bytes;
+        self.unchecked += o.unchecked;
+        self.crc_failures += o.crc_failures;
+        self.garbage_bytes += o.garbage_bytes;
+        self.truncated_datagrams += o.truncated_datagrams;
+        self.drops += &o.drops;
+    }
+}
+
 /// Counters of one link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct LinkCounters {
