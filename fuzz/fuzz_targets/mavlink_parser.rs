@@ -10,12 +10,15 @@
 //! - the stats add up: every byte fed is garbage, a rejected magic byte, part of a frame, or
 //!   still buffered;
 //! - chunking does not matter: the same frames and stats as when feeding the stream at once;
-//! - `feed_all` hands out the same frames, with the same stats, as a loop over `feed`.
+//! - `feed_all` hands out the same frames, with the same stats, as a loop over `feed`;
+//! - after a pause (`drain_stalled`, after some chunks), frames handed out are checked as
+//!   above, the stats still add up, and nothing is left buffered.
 //!
 //! Run with `cargo fuzz run mavlink_parser corpus/mavlink_parser seeds/mavlink_parser`.
 #![no_main]
 
-use ferrolink_runtime::mavlink::parser::{Feed, Parser, Stats};
+use ferrolink_runtime::framing::Deframer;
+use ferrolink_runtime::mavlink::parser::{Feed, ParsedFrame, Parser, Stats};
 use ferrolink_runtime::mavlink::{find_meta, v2, MessageMeta};
 use libfuzzer_sys::fuzz_target;
 
@@ -59,6 +62,27 @@ impl Chunks {
     }
 }
 
+/// Checks a frame handed out; returns its length.
+fn check_frame(frame: &ParsedFrame<'_>, pass_unknown: bool) -> usize {
+    let bytes = frame.as_bytes();
+    assert_eq!(bytes.len(), frame.frame().frame_len());
+    match frame.meta() {
+        Some(m) => {
+            assert_eq!(m.id, frame.msg_id());
+            assert!(frame.frame().check_crc(m.crc_extra));
+        }
+        None => {
+            assert!(pass_unknown);
+            assert!(find_meta(META, frame.msg_id()).is_none());
+        }
+    }
+    if let Some(f) = frame.as_v2() {
+        assert!(!f.has_unknown_flags());
+        assert!(v2::Frame::new_checked(bytes).is_ok());
+    }
+    bytes.len()
+}
+
 fn check_frames(
     parser: &mut Parser,
     chunks: &mut dyn Iterator<Item = &[u8]>,
@@ -72,24 +96,8 @@ fn check_frames(
         let mut input = chunk;
         while let Feed::Frame { frame, remaining } = parser.feed(input) {
             assert!(remaining.len() <= input.len());
-            let bytes = frame.as_bytes();
-            assert_eq!(bytes.len(), frame.frame().frame_len());
-            match frame.meta() {
-                Some(m) => {
-                    assert_eq!(m.id, frame.msg_id());
-                    assert!(frame.frame().check_crc(m.crc_extra));
-                }
-                None => {
-                    assert!(pass_unknown);
-                    assert!(find_meta(META, frame.msg_id()).is_none());
-                }
-            }
-            if let Some(f) = frame.as_v2() {
-                assert!(!f.has_unknown_flags());
-                assert!(v2::Frame::new_checked(bytes).is_ok());
-            }
-            frame_bytes += bytes.len();
-            frames.push(bytes.to_vec());
+            frame_bytes += check_frame(&frame, pass_unknown);
+            frames.push(frame.as_bytes().to_vec());
             input = remaining;
         }
         let s = parser.stats();
@@ -132,4 +140,21 @@ fuzz_target!(|data: &[u8]| {
     let mut parser: Parser = Parser::new(META).pass_unknown_ids(pass_unknown);
     let whole = check_frames(&mut parser, &mut core::iter::once(stream), pass_unknown);
     assert_eq!(chunked, whole);
+
+    // Pauses: after every chunk (control bit 1) or every third.
+    let mut parser: Parser = Parser::new(META).pass_unknown_ids(pass_unknown);
+    let (mut fed, mut frame_bytes) = (0usize, 0usize);
+    for (i, chunk) in chunks.iter().enumerate() {
+        fed += chunk.len();
+        parser.feed_all(chunk, |frame| frame_bytes += check_frame(&frame, pass_unknown));
+        if control & 2 != 0 || i % 3 == 2 {
+            parser.drain_stalled(|frame| frame_bytes += check_frame(&frame, pass_unknown));
+            assert_eq!(parser.buffered(), 0);
+        }
+        let s = parser.stats();
+        assert_eq!(
+            s.garbage_bytes + s.rejected() + frame_bytes + parser.buffered(),
+            fed
+        );
+    }
 });

@@ -41,6 +41,8 @@ pub enum Owned {
     Up(PeerId, Sender),
     /// Bytes from a peer.
     Rx(PeerId, Vec<u8>),
+    /// A stream peer paused after sending ([`Event::Quiet`]).
+    Quiet(PeerId),
     /// A peer went away.
     Down(PeerId),
 }
@@ -50,6 +52,7 @@ impl From<Event<'_>> for Owned {
         match event {
             Event::Up { peer, sender, .. } => Owned::Up(peer, sender),
             Event::Rx { peer, bytes, .. } => Owned::Rx(peer, bytes.to_vec()),
+            Event::Quiet { peer } => Owned::Quiet(peer),
             Event::Down { peer, .. } => Owned::Down(peer),
         }
     }
@@ -230,7 +233,8 @@ impl<D: Deframer + 'static, E: Events> Framed<D, E> {
     }
 
     /// Takes in one event: a new peer gets its own parser; its bytes go through that parser,
-    /// and `on_frame` gets every frame they complete; a peer that goes away loses the frame it
+    /// and `on_frame` gets every frame they complete; when it pauses, its parser judges what it
+    /// holds (frames behind a false start come out); a peer that goes away loses the frame it
     /// was sending (counted by its parser) and is forgotten.
     pub fn handle(&mut self, event: Owned, mut on_frame: impl FnMut(PeerId, D::Frame<'_>)) {
         match event {
@@ -241,6 +245,11 @@ impl<D: Deframer + 'static, E: Events> Framed<D, E> {
             Owned::Rx(peer, bytes) => {
                 if let Some(p) = self.peers.get_mut(&peer) {
                     p.deframer.feed_all(&bytes, |frame| on_frame(peer, frame));
+                }
+            }
+            Owned::Quiet(peer) => {
+                if let Some(p) = self.peers.get_mut(&peer) {
+                    p.deframer.drain_stalled(|frame| on_frame(peer, frame));
                 }
             }
             Owned::Down(peer) => {

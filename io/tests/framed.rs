@@ -128,6 +128,32 @@ fn mavlink_on_a_serial_link() {
     );
 }
 
+/// A false start (a MAVLink 2 header of a known message claiming 255 bytes, as a bad radio or
+/// a link joined midway makes them) and then one frame, and nothing more: the frame comes out
+/// once the serial device has been quiet for `link::QUIET`, not after 255 bytes more.
+#[test]
+fn a_false_start_on_a_quiet_serial_link_holds_nothing_back() {
+    if !ptys() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let new = || mavlink::parser::Parser::<{ v2::MAX_FRAME_LEN }>::new(META);
+    let (pty, mut serial) = serial_link(&dir.path().join("false-start"), new);
+    let mut out = [0u8; v2::MAX_FRAME_LEN];
+    let n = v2::encode_raw(Header::new(7, 1, 1), 0, 50, &[7; 9], &mut out).unwrap();
+    let mut wire = std::vec![0xFD, 0xFF, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00];
+    wire.extend_from_slice(&out[..n]);
+    let sent = Instant::now();
+    let got = carry(&pty, &mut serial, &[wire], |frame| frame.header().seq);
+    assert_eq!(got, [7], "the frame behind the false start");
+    assert!(
+        sent.elapsed() >= ferrolink_io::link::QUIET,
+        "it came before the pause"
+    );
+    let (_, stats) = serial.stats().next().expect("a peer");
+    assert_eq!(stats.garbage_bytes, NOISE.len() + 10, "{stats:?}");
+}
+
 #[test]
 fn ndlcom_on_a_serial_link() {
     if !ptys() {

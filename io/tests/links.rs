@@ -38,6 +38,7 @@ fn events() -> (link::Sink, mpsc::Receiver<Ev>) {
             } => Ev::Up(peer, name, sender),
             link::Event::Rx { peer, bytes, .. } => Ev::Rx(peer, bytes.to_vec()),
             link::Event::Down { peer, why } => Ev::Down(peer, why),
+            link::Event::Quiet { .. } => return true,
         };
         tx.send(ev).is_ok()
     });

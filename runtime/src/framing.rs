@@ -9,7 +9,10 @@
 //!   storage, valid until the next `feed`;
 //! - [`stats`](Deframer::stats) counts the frames handed out and every drop, by reason
 //!   ([`Counters`]);
-//! - [`finish`](Deframer::finish) ends the input: a frame in progress is dropped and counted.
+//! - [`finish`](Deframer::finish) ends the input: a frame in progress is dropped and counted;
+//! - [`drain_stalled`](Deframer::drain_stalled) judges what is buffered after the input paused
+//!   for longer than a link pauses inside a frame, so a false start (a stray start byte whose
+//!   claimed length never comes) holds back no frame behind it.
 //!
 //! | protocol | parser | frame |
 //! |----------|--------|-------|
@@ -77,6 +80,28 @@ pub trait Deframer {
 
     /// Ends the input: the bytes of a frame in progress are dropped and counted.
     fn finish(&mut self);
+
+    /// The input paused for longer than a link ever pauses inside a frame, so what is buffered
+    /// is all there is of it: gives up the candidate frame the buffer starts with (counted),
+    /// so that the next `feed`, empty or not, looks at the bytes behind it. Returns whether
+    /// there was one. Parsers that resynchronise on a delimiter (NDLCom's flag) keep the
+    /// default, which gives up nothing.
+    fn give_up_stalled(&mut self) -> bool {
+        false
+    }
+
+    /// After such a pause, judges everything buffered: every complete frame behind a false
+    /// start goes to `on_frame`, and what is left is given up. Returns how many frames.
+    fn drain_stalled(&mut self, mut on_frame: impl FnMut(Self::Frame<'_>)) -> usize
+    where
+        Self: Sized,
+    {
+        let mut n = 0;
+        while self.give_up_stalled() {
+            n += self.feed_all(&[], &mut on_frame);
+        }
+        n
+    }
 
     /// Feeds bytes and calls `on_frame` for every frame they complete; returns how many.
     fn feed_all(&mut self, mut input: &[u8], mut on_frame: impl FnMut(Self::Frame<'_>)) -> usize

@@ -98,6 +98,23 @@ fn broadcast_goes_to_every_other_link() {
     assert_eq!(one(&mut r, 0, &cmd, 0), (0b1110, None));
 }
 
+/// A false start holds the heartbeat behind it until the link pauses; then it is routed and
+/// teaches its route, and the false start is counted as garbage.
+#[test]
+fn a_pause_routes_the_frame_behind_a_false_start() {
+    let mut r = router(2);
+    let mut bytes = vec![0xFD, 0xFF, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00];
+    bytes.extend(heartbeat(7, 1));
+    assert!(feed(&mut r, 0, &bytes, 1_000).is_empty());
+    let mut routed = Vec::new();
+    r.receive_stalled(0, 2_000, 2_000, |f| routed.push((f.to, f.bytes.to_vec())));
+    assert_eq!(routed, [(0b10, heartbeat(7, 1))]);
+    assert!(r.routes().any(|route| route.sysid == 7 && route.link == 0));
+    assert_eq!(r.link_counters(0).unwrap().garbage_bytes, 10);
+    // Nothing held: a pause does nothing.
+    r.receive_stalled(0, 3_000, 3_000, |_| panic!("nothing to route"));
+}
+
 #[test]
 fn targeted_goes_only_where_the_target_was_seen() {
     let mut r = router(4);

@@ -6,7 +6,8 @@
 //!
 //! An [`Endpoint`] is opened with [`open`], which starts its threads and reports to one [`Sink`],
 //! called on those threads: [`Event::Up`] when a peer appears (with a [`Sender`] to write to
-//! it), [`Event::Rx`] for every read, [`Event::Down`] when it goes away. Peers are numbered by
+//! it), [`Event::Rx`] for every read, [`Event::Quiet`] when a stream peer pauses for
+//! [`QUIET`] after sending, [`Event::Down`] when it goes away. Peers are numbered by
 //! [`PeerId`], never reused.
 //!
 //! | endpoint, as [`Display`](fmt::Display) writes it | peers | |
@@ -71,6 +72,11 @@ pub const DEFAULT_PEER_EXPIRY: Duration = Duration::from_secs(10);
 pub const MAX_BACKOFF: Duration = Duration::from_secs(1);
 /// How often readers look up from a blocking read to notice a shutdown.
 const POLL: Duration = Duration::from_millis(200);
+/// How long a stream peer (TCP, serial, pty) may pause after sending before it is reported
+/// [`Event::Quiet`]: far longer than a link pauses inside a frame (a 280-byte MAVLink frame
+/// takes 49 ms at 57,600 baud; USB serial adapters and radios hold bytes back for tens of
+/// milliseconds), short enough that a false start does not hold frames back for long.
+pub const QUIET: Duration = Duration::from_millis(500);
 
 /// Where a link goes: what a URI names, parsed by a protocol's [`Grammar`](crate::uri::Grammar).
 /// `Display` writes the link layer's own spelling (MAVLink's, with NDLCom's `udp://` pair).
@@ -160,6 +166,14 @@ pub enum Event<'a> {
         bytes: &'a [u8],
         /// When they were read.
         at: Instant,
+    },
+    /// A stream peer sent nothing for [`QUIET`] after its last bytes: a frame it left
+    /// unfinished will not be finished, and the parser should judge what it holds
+    /// ([`Deframer::drain_stalled`](ferrolink_runtime::framing::Deframer::drain_stalled)).
+    /// Datagram peers have no such event: a datagram is whole.
+    Quiet {
+        /// The peer.
+        peer: PeerId,
     },
     /// A peer went away (closed, failed, unplugged or quiet), with the reason.
     Down {
@@ -733,17 +747,27 @@ fn read_until_down(
 ) -> Option<String> {
     let id = peer.id;
     let mut buf = vec![0u8; 16 * 1024];
+    // When the last bytes came, until the peer is reported quiet after them.
+    let mut last_rx: Option<Instant> = None;
     let why = loop {
         if stop.load(Ordering::Relaxed) {
             return None;
         }
-        match reader.read(&mut buf, POLL) {
-            Ok(0) => {}
+        let timeout = last_rx.map_or(POLL, |t| QUIET.saturating_sub(t.elapsed()).min(POLL));
+        match reader.read(&mut buf, timeout) {
+            Ok(0) => {
+                if last_rx.is_some_and(|t| t.elapsed() >= QUIET) {
+                    last_rx = None;
+                    events(Event::Quiet { peer: id }).then_some(())?;
+                }
+            }
             Ok(n) => {
+                let at = Instant::now();
+                last_rx = Some(at);
                 let rx = Event::Rx {
                     peer: id,
                     bytes: &buf[..n],
-                    at: Instant::now(),
+                    at,
                 };
                 // Datagrams sent while handling these bytes go out together.
                 batch::batch(|| events(rx)).then_some(())?;

@@ -23,7 +23,7 @@ use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
 use ferrolink_runtime::mavlink::parser::Parser;
-use ferrolink_runtime::mavlink::router::{Daemon, LinkConfig, LinkCounters, MAX_LINKS};
+use ferrolink_runtime::mavlink::router::{Daemon, LinkConfig, LinkCounters, Routed, MAX_LINKS};
 use ferrolink_runtime::mavlink::{v2, MessageMeta};
 use serde_json::json;
 
@@ -146,47 +146,13 @@ impl State {
                     // A peer refused before is not reported refused again, however much it sends.
                     self.admit(endpoint, peer, name, sender, refused);
                 }
-                let Some(from) = self.links.get(&peer).map(|l| l.slot) else {
-                    return;
-                };
                 let now_us = unix_us();
                 let rx_us = now_us.saturating_sub(at.elapsed().as_micros() as u64);
-                let State {
-                    router,
-                    links,
-                    by_slot,
-                    tlog,
-                    tlog_error,
-                    ..
-                } = self;
-                let mut checked = false;
-                router.receive(from, bytes, rx_us, now_us, |routed| {
-                    checked |= routed.frame.is_checked();
-                    // After a write error, nothing more: a record half written stays the last.
-                    if let (Some(log), None) = (tlog.as_mut(), tlog_error.as_ref()) {
-                        if let Err(e) = log.write(rx_us, routed.bytes) {
-                            *tlog_error = Some(e);
-                        }
-                    }
-                    let mut to = routed.to;
-                    while to != 0 {
-                        let slot = to.trailing_zeros() as usize;
-                        to &= to - 1;
-                        let link = by_slot
-                            .get(slot)
-                            .copied()
-                            .flatten()
-                            .and_then(|p| links.get_mut(&p));
-                        if let Some(link) = link {
-                            if link.sender.send(routed.bytes).is_err() {
-                                link.tx_errors += 1;
-                            }
-                        }
-                    }
-                });
-                if let Some(link) = links.get_mut(&peer).filter(|_| checked) {
-                    link.heard_us = now_us;
-                }
+                self.route(peer, Some(bytes), rx_us, now_us);
+            }
+            Event::Quiet { peer } => {
+                let now_us = unix_us();
+                self.route(peer, None, now_us, now_us);
             }
             Event::Down { peer, why } => {
                 self.waiting.remove(&peer);
@@ -194,6 +160,54 @@ impl State {
                     eprintln!("link down: {}: {why} ({totals})", link.name);
                 }
             }
+        }
+    }
+
+    /// Routes every frame that `bytes` from `peer` complete, or with `None` (the peer went
+    /// quiet), every frame its parser holds behind a false start.
+    fn route(&mut self, peer: PeerId, bytes: Option<&[u8]>, rx_us: u64, now_us: u64) {
+        let Some(from) = self.links.get(&peer).map(|l| l.slot) else {
+            return;
+        };
+        let State {
+            router,
+            links,
+            by_slot,
+            tlog,
+            tlog_error,
+            ..
+        } = self;
+        let mut checked = false;
+        let on_frame = |routed: Routed<'_>| {
+            checked |= routed.frame.is_checked();
+            // After a write error, nothing more: a record half written stays the last.
+            if let (Some(log), None) = (tlog.as_mut(), tlog_error.as_ref()) {
+                if let Err(e) = log.write(rx_us, routed.bytes) {
+                    *tlog_error = Some(e);
+                }
+            }
+            let mut to = routed.to;
+            while to != 0 {
+                let slot = to.trailing_zeros() as usize;
+                to &= to - 1;
+                let link = by_slot
+                    .get(slot)
+                    .copied()
+                    .flatten()
+                    .and_then(|p| links.get_mut(&p));
+                if let Some(link) = link {
+                    if link.sender.send(routed.bytes).is_err() {
+                        link.tx_errors += 1;
+                    }
+                }
+            }
+        };
+        match bytes {
+            Some(bytes) => router.receive(from, bytes, rx_us, now_us, on_frame),
+            None => router.receive_stalled(from, rx_us, now_us, on_frame),
+        }
+        if let Some(link) = links.get_mut(&peer).filter(|_| checked) {
+            link.heard_us = now_us;
         }
     }
 }

@@ -280,6 +280,8 @@ fn sink(tx: &mpsc::Sender<Event>) -> link::Sink {
             },
             link::Event::Rx { peer, bytes, .. } => Event::Rx(peer, bytes.to_vec()),
             link::Event::Down { peer, why } => Event::Down(peer, why),
+            // NDLCom resynchronises on its frame flag: a pause changes nothing.
+            link::Event::Quiet { .. } => return true,
         };
         tx.send(event).is_ok()
     })

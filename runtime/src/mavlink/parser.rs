@@ -324,6 +324,29 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Parser<N, T> {
             .saturating_sub(self.start.saturating_add(self.pending))
     }
 
+    /// Gives up the candidate frame the buffered bytes start with, after the input paused for
+    /// longer than a link pauses inside a frame: its start byte is counted as garbage, and the
+    /// next `feed` (empty or not) looks for frames in the bytes after it. Returns whether there
+    /// was a candidate. See [`Deframer::drain_stalled`], which repeats this until nothing is
+    /// buffered.
+    ///
+    /// A false start (a stray 0xFD or 0xFE, or one inside the tail of a frame joined midway)
+    /// claims up to 280 bytes; without this, the frames behind it wait until that many bytes
+    /// have come, seconds on a link that carries one heartbeat a second.
+    pub fn give_up_stalled(&mut self) -> bool {
+        if self.pending > 0 {
+            self.start += self.pending;
+            self.pending = 0;
+        }
+        self.need = 0;
+        if self.start >= self.end {
+            return false;
+        }
+        bump(&mut self.stats.garbage_bytes, 1);
+        self.start += 1;
+        true
+    }
+
     /// Drops the buffered bytes (counted as garbage), e.g. after a link reset.
     pub fn reset(&mut self) {
         let buffered = self.buffered();
@@ -787,6 +810,10 @@ impl<const N: usize, T: AsRef<[MessageMeta]>> Deframer for Parser<N, T> {
     fn finish(&mut self) {
         self.reset();
     }
+
+    fn give_up_stalled(&mut self) -> bool {
+        Parser::give_up_stalled(self)
+    }
 }
 
 #[cfg(test)]
@@ -937,6 +964,49 @@ mod tests {
         p.set_pass_unknown_ids(false);
         assert!(collect(&mut p, &bad, 3).is_empty());
         assert_eq!(p.stats().bad_crc, 1);
+    }
+
+    /// A false start that passes every early check waits for its claimed length; when the
+    /// input pauses, it is given up and the frames behind it come out, while a frame still
+    /// arriving at the end of the buffer is given up too (all there is of it has come).
+    #[test]
+    fn a_pause_gives_up_false_starts_and_frees_the_frames_behind() {
+        use crate::framing::Deframer;
+        let mut out = [0u8; 300];
+        let mut frames = Vec::new();
+        for seq in 0..3u8 {
+            let n = v2::encode(Header::new(seq, 1, 1), &golden_heartbeat(), &mut out).unwrap();
+            frames.push(out[..n].to_vec());
+        }
+        // Two false starts (MAVLink 2 headers of a known id claiming 255 and 240 bytes), then two
+        // frames, then the first 7 bytes of a third.
+        let mut stream = std::vec![0xFD, 0xFF, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00];
+        stream.extend_from_slice(&[0xFD, 0xF0, 0x00, 0x00, 0x00, 0x01, 0x01, 0x00, 0x00, 0x00]);
+        stream.extend_from_slice(&frames[0]);
+        stream.extend_from_slice(&frames[1]);
+        stream.extend_from_slice(&frames[2][..7]);
+        for chunk in [1, 2, 5, 21, stream.len()] {
+            let mut p = P::for_dialect::<TestDialect>();
+            assert!(collect(&mut p, &stream, chunk).is_empty(), "chunk {chunk}");
+            let mut got = Vec::new();
+            let n = p.drain_stalled(|f| got.push(f.as_bytes().to_vec()));
+            assert_eq!((n, &got[..]), (2, &frames[..2]), "chunk {chunk}");
+            assert_eq!(p.buffered(), 0, "chunk {chunk}");
+            assert_eq!(accounted(&p), 20 + 7, "chunk {chunk}");
+            // Nothing buffered: a pause gives up nothing, and the stream goes on.
+            assert!(!p.give_up_stalled());
+            assert_eq!(
+                collect(&mut p, &frames[2], chunk),
+                [(frames[2].clone(), true)]
+            );
+        }
+        // A frame handed out of the buffer is not given up by a pause right after it.
+        let mut p = P::for_dialect::<TestDialect>();
+        let (head, tail) = frames[0].split_at(5);
+        assert!(collect(&mut p, head, head.len()).is_empty());
+        assert!(matches!(p.feed(tail), Feed::Frame { .. }));
+        assert!(!p.give_up_stalled());
+        assert_eq!(p.stats().frames, 1);
     }
 
     #[test]

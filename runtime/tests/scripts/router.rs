@@ -3,7 +3,8 @@
 //!
 //! `check_router`: the input is a script for a 4-link router; each operation's first byte picks
 //! raw bytes on a link, a well-formed frame (known or unknown id, v1 or v2, addressed or not,
-//! maybe corrupted) on a link, a clock step, or closing and reopening a link with another
+//! maybe corrupted) on a link, a clock step (maybe with a pause on a link, which gives up a
+//! false start its parser holds), or closing and reopening a link with another
 //! configuration (group, deduplication, required signing, filters, datagrams). Checked: no
 //! panic; no frame goes back to its link or to a closed one; every frame handed out as checked
 //! passes its CRC with its table entry, and every unchecked one has an id the table lacks; a
@@ -15,7 +16,7 @@
 
 use std::collections::HashSet;
 
-use ferrolink_runtime::mavlink::router::{DropReason, Filter, LinkConfig, Router};
+use ferrolink_runtime::mavlink::router::{DropReason, Filter, LinkConfig, Routed, Router};
 use ferrolink_runtime::mavlink::signing::SecretKey;
 use ferrolink_runtime::mavlink::{find_meta, v1, v2, Header, MessageMeta};
 
@@ -134,23 +135,26 @@ pub fn check_router(script: &[u8]) {
     while let Some((&op, tail)) = rest.split_first() {
         rest = tail;
         let link = usize::from(op >> 2) % LINKS;
-        let bytes = match op % 4 {
+        let (bytes, pause) = match op % 4 {
             0 => {
                 let len = usize::from(rest.first().copied().unwrap_or(0))
                     .min(rest.len().saturating_sub(1));
                 let bytes = rest.get(1..1 + len).unwrap_or(&[]).to_vec();
                 rest = rest.get(1 + len..).unwrap_or(&[]);
-                bytes
+                (bytes, false)
             }
             1 => {
                 let args = rest.get(..8).unwrap_or(rest);
                 let frame = build(op, args);
                 rest = rest.get(8..).unwrap_or(&[]);
-                frame
+                (frame, false)
             }
             2 => {
                 now += u64::from(op) * 20_000;
-                continue;
+                if op & 0x40 == 0 {
+                    continue;
+                }
+                (Vec::new(), true)
             }
             _ => {
                 let bits = rest.first().copied().unwrap_or(0);
@@ -170,7 +174,7 @@ pub fn check_router(script: &[u8]) {
         let open: u64 = (0..LINKS)
             .filter(|&i| router.is_open(i))
             .fold(0, |m, i| m | 1 << i);
-        router.receive(link, &bytes, now, now, |routed| {
+        let on_routed = |routed: Routed<'_>| {
             assert_eq!(routed.from, link);
             assert_eq!(routed.to & (1 << link), 0, "echo");
             assert_eq!(routed.to & !open, 0, "sent to a closed link");
@@ -207,7 +211,12 @@ pub fn check_router(script: &[u8]) {
             for (i, n) in copies_out.iter_mut().enumerate() {
                 *n += (routed.to >> i) & 1;
             }
-        });
+        };
+        if pause {
+            router.receive_stalled(link, now, now, on_routed);
+        } else {
+            router.receive(link, &bytes, now, now, on_routed);
+        }
         for r in router.routes() {
             assert!(
                 proven.contains(&(r.link, r.sysid, r.compid)),

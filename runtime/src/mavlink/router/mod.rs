@@ -372,6 +372,26 @@ impl<
         self.sync_parser_counters(from);
     }
 
+    /// Link `from` has been quiet for longer than a link pauses inside a frame: what its parser
+    /// holds is judged now, and every complete frame behind a false start is routed as
+    /// [`receive`](Self::receive) routes it (see [`Parser::give_up_stalled`]).
+    pub fn receive_stalled(
+        &mut self,
+        from: usize,
+        rx_us: u64,
+        now_us: u64,
+        mut on_frame: impl FnMut(Routed<'_>),
+    ) {
+        while self.is_open(from)
+            && self
+                .parsers
+                .get_mut(from)
+                .is_some_and(|p| p.give_up_stalled())
+        {
+            self.receive(from, &[], rx_us, now_us, &mut on_frame);
+        }
+    }
+
     /// Adds what the parser of link `index` counted since the last time to its counters.
     fn sync_parser_counters(&mut self, index: usize) {
         let (Some(parser), Some(parsed), Some(link)) = (
