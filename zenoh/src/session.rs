@@ -3,6 +3,7 @@
 //! carried nothing usable.
 
 use std::io;
+use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
 use ferrolink_io::link::{self, Event, PeerId, Sender};
@@ -146,18 +147,19 @@ impl Running {
             .map_err(|e| self.error(e))
     }
 
-    /// Hands every sample other sessions put on `key` to `on_sample`, one at a time, until the
-    /// endpoint is dropped.
+    /// Hands every sample other sessions put on `key` to `on_sample`, one at a time and in
+    /// order, until the endpoint is dropped, as [`Arrivals`] says.
     pub(crate) fn on_remote_sample(
         &mut self,
         key: String,
-        on_sample: impl FnMut(Sample) + Send + Sync + 'static,
+        on_sample: impl FnMut(Sample) + Send + 'static,
     ) -> io::Result<()> {
+        let arrivals = Arc::new(Arrivals::new(on_sample));
         let subscriber = self
             .session
             .declare_subscriber(key)
             .allowed_origin(Locality::Remote)
-            .callback_mut(on_sample)
+            .callback(move |sample| arrivals.arrive(sample))
             .wait()
             .map_err(|e| self.error(e))?;
         self.subscribers.push(subscriber);
@@ -193,6 +195,58 @@ impl Drop for Running {
     }
 }
 
+/// Samples handed on together: what one read from Zenoh brings.
+///
+/// Zenoh calls a subscriber once per sample, from the task that read them, and never says when
+/// a read's samples are done. The first sample of a read therefore schedules a task on the same
+/// runtime, which runs once the reading task yields (after the read, on the single worker
+/// thread the CLI gives Zenoh), and hands on every sample that came by then inside one
+/// [`link::batch`]: the frames they route to a UDP peer share its datagrams, one system call per
+/// socket, as those read from a UDP socket do, where one `sendto` per frame and peer was the
+/// largest cost of a router fed by Zenoh. Samples are handed on in the order they came; the
+/// handler's lock is taken before the queue is, so a second task cannot overtake the first.
+/// Outside a tokio runtime a sample is handed on at once.
+struct Arrivals<T, F> {
+    waiting: Mutex<Vec<T>>,
+    handler: Mutex<F>,
+}
+
+impl<T: Send + 'static, F: FnMut(T) + Send + 'static> Arrivals<T, F> {
+    fn new(handler: F) -> Self {
+        Arrivals {
+            waiting: Mutex::new(Vec::new()),
+            handler: Mutex::new(handler),
+        }
+    }
+
+    fn arrive(self: &Arc<Self>, item: T) {
+        let first = {
+            let mut waiting = lock(&self.waiting);
+            waiting.push(item);
+            waiting.len() == 1
+        };
+        if first {
+            match tokio::runtime::Handle::try_current() {
+                Ok(runtime) => {
+                    let arrivals = Arc::clone(self);
+                    drop(runtime.spawn(async move { arrivals.hand_on() }));
+                }
+                Err(_) => self.hand_on(),
+            }
+        }
+    }
+
+    fn hand_on(&self) {
+        let mut handler = lock(&self.handler);
+        let items = std::mem::take(&mut *lock(&self.waiting));
+        link::batch(|| items.into_iter().for_each(&mut *handler));
+    }
+}
+
+fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    mutex.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
 /// Counts samples that carried nothing usable, and says so on stderr at most once a second.
 #[derive(Debug, Default)]
 pub(crate) struct Rejections {
@@ -221,5 +275,83 @@ impl Rejections {
     #[cfg(test)]
     pub(crate) fn count(&self) -> u64 {
         self.count
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn recorder() -> (Arc<Mutex<Vec<u32>>>, impl FnMut(u32) + Send + 'static) {
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let handler = {
+            let seen = Arc::clone(&seen);
+            move |n| lock(&seen).push(n)
+        };
+        (seen, handler)
+    }
+
+    #[test]
+    fn outside_a_runtime_each_arrival_is_handed_on_at_once() {
+        let (seen, handler) = recorder();
+        let arrivals = Arc::new(Arrivals::new(handler));
+        arrivals.arrive(1);
+        assert_eq!(*lock(&seen), [1]);
+        arrivals.arrive(2);
+        assert_eq!(*lock(&seen), [1, 2]);
+    }
+
+    #[test]
+    fn what_comes_before_the_reader_yields_is_handed_on_together_and_in_order() {
+        let (seen, handler) = recorder();
+        let arrivals = Arc::new(Arrivals::new(handler));
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .expect("runtime");
+        runtime.block_on(async {
+            let reader = {
+                let (arrivals, seen) = (Arc::clone(&arrivals), Arc::clone(&seen));
+                tokio::spawn(async move {
+                    for n in 0..3 {
+                        arrivals.arrive(n);
+                    }
+                    // Nothing is handed on while the reader runs.
+                    let before_yield = lock(&seen).clone();
+                    tokio::task::yield_now().await;
+                    arrivals.arrive(3);
+                    before_yield
+                })
+            };
+            assert_eq!(reader.await.expect("reader"), Vec::<u32>::new());
+            tokio::task::yield_now().await;
+        });
+        assert_eq!(*lock(&seen), [0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn many_workers_keep_the_order_of_arrival() {
+        let (seen, handler) = recorder();
+        let arrivals = Arc::new(Arrivals::new(handler));
+        let runtime = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .build()
+            .expect("runtime");
+        let reader = {
+            let arrivals = Arc::clone(&arrivals);
+            runtime.spawn(async move {
+                for n in 0..10_000 {
+                    arrivals.arrive(n);
+                    if n % 7 == 0 {
+                        tokio::task::yield_now().await;
+                    }
+                }
+            })
+        };
+        runtime.block_on(reader).expect("reader");
+        let deadline = std::time::Instant::now() + Duration::from_secs(10);
+        while lock(&seen).len() < 10_000 && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        assert_eq!(*lock(&seen), (0..10_000).collect::<Vec<_>>());
     }
 }

@@ -82,8 +82,12 @@ thread_local! {
 
 /// Runs `handle` with the sends of UDP [`Sender`](super::Sender)s on this thread held back,
 /// then sends them, one system call per socket where the system allows (on a UDP reader's
-/// thread, when it next waits).
-pub(crate) fn batch<R>(handle: impl FnOnce() -> R) -> R {
+/// thread, when it next waits), the frames bound for one address sharing datagrams where its
+/// sender allows ([`Options::pack_up_to`](super::Options::pack_up_to)).
+///
+/// The link layer's readers hand each read's events to their sink inside one; an endpoint
+/// built outside this crate does the same with what it gets at once (Zenoh's samples).
+pub fn batch<R>(handle: impl FnOnce() -> R) -> R {
     let nested = OUTBOX.with(|o| std::mem::replace(&mut o.borrow_mut().open, true));
     if nested {
         return handle();

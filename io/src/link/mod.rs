@@ -58,7 +58,7 @@ mod queue;
 #[cfg(target_os = "linux")]
 mod uring;
 
-pub use batch::PACKED_DATAGRAM;
+pub use batch::{batch, PACKED_DATAGRAM};
 use queue::Queue;
 pub use queue::{OutputQueue, Overflow, DAEMON_QUEUE, DEFAULT_QUEUE_BYTES};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
