@@ -6,7 +6,9 @@
 //! Before, SIGHUP ended the router even under `nohup`, so a router started from an SSH session
 //! died with the session.
 
-use std::io::{BufRead, BufReader, Read};
+mod common;
+
+use std::io::Read;
 use std::net::UdpSocket;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -34,11 +36,7 @@ fn start(prelude: &str, args: &[String]) -> Child {
         .stderr(Stdio::piped())
         .spawn()
         .expect("the router starts");
-    let mut line = String::new();
-    BufReader::new(child.stdout.as_mut().expect("stdout"))
-        .read_line(&mut line)
-        .expect("read");
-    assert!(line.starts_with("ready"), "{line}");
+    common::wait_ready(&mut child);
     child
 }
 

@@ -4,7 +4,8 @@
 //! router fed by Zenoh).
 #![cfg(feature = "zenoh")]
 
-use std::io::{BufRead, BufReader};
+mod common;
+
 use std::net::UdpSocket;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -34,18 +35,14 @@ struct Router(Child);
 
 impl Router {
     fn start(endpoints: &[String]) -> Router {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_ferrolink"))
+        let mut child = Command::new(common::ferrolink())
             .args(["mavlink", "router"])
             .args(endpoints)
             .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
             .expect("the router starts");
-        let mut line = String::new();
-        BufReader::new(child.stdout.as_mut().expect("stdout"))
-            .read_line(&mut line)
-            .expect("read");
-        assert!(line.starts_with("ready"), "{line}");
+        common::wait_ready(&mut child);
         Router(child)
     }
 }

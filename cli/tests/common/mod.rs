@@ -1,12 +1,23 @@
-//! What the CLI's tests share: the binary, the workspace, and the reference Python.
+//! What the CLI's tests share: the binary, a router's start, the workspace, and the reference
+//! Python.
 #![allow(dead_code)]
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Child, Command};
 
 /// The `ferrolink` binary under test.
 pub fn ferrolink() -> &'static str {
     env!("CARGO_BIN_EXE_ferrolink")
+}
+
+/// Waits for a router's `ready` line on its (piped) stdout.
+pub fn wait_ready(router: &mut Child) {
+    let mut line = String::new();
+    BufReader::new(router.stdout.as_mut().expect("stdout"))
+        .read_line(&mut line)
+        .expect("read");
+    assert!(line.starts_with("ready"), "{line}");
 }
 
 /// The workspace root.
