@@ -206,6 +206,11 @@ impl Drop for Running {
 /// largest cost of a router fed by Zenoh. Samples are handed on in the order they came; the
 /// handler's lock is taken before the queue is, so a second task cannot overtake the first.
 /// Outside a tokio runtime a sample is handed on at once.
+///
+/// At most [`MAX_WAITING`] samples wait: where Zenoh has more than one worker thread and the
+/// handler falls behind the reader, the reader hands on what waits itself, after the batch
+/// being handled, so a peer that floods the link slows its own reading instead of growing the
+/// queue without end.
 struct Arrivals<T, F> {
     waiting: Mutex<Vec<T>>,
     handler: Mutex<F>,
@@ -220,12 +225,14 @@ impl<T: Send + 'static, F: FnMut(T) + Send + 'static> Arrivals<T, F> {
     }
 
     fn arrive(self: &Arc<Self>, item: T) {
-        let first = {
+        let (first, full) = {
             let mut waiting = lock(&self.waiting);
             waiting.push(item);
-            waiting.len() == 1
+            (waiting.len() == 1, waiting.len() >= MAX_WAITING)
         };
-        if first {
+        if full {
+            self.hand_on();
+        } else if first {
             match tokio::runtime::Handle::try_current() {
                 Ok(runtime) => {
                     let arrivals = Arc::clone(self);
@@ -242,6 +249,9 @@ impl<T: Send + 'static, F: FnMut(T) + Send + 'static> Arrivals<T, F> {
         link::batch(|| items.into_iter().for_each(&mut *handler));
     }
 }
+
+/// The most samples [`Arrivals`] holds: enough to fill a few packed datagrams per peer.
+const MAX_WAITING: usize = 256;
 
 fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
     mutex.lock().unwrap_or_else(PoisonError::into_inner)
@@ -326,6 +336,31 @@ mod tests {
             tokio::task::yield_now().await;
         });
         assert_eq!(*lock(&seen), [0, 1, 2, 3]);
+    }
+
+    #[test]
+    fn a_reader_that_never_yields_hands_on_what_waits_itself() {
+        let (seen, handler) = recorder();
+        let arrivals = Arc::new(Arrivals::new(handler));
+        let runtime = tokio::runtime::Builder::new_current_thread()
+            .build()
+            .expect("runtime");
+        let n = 3 * MAX_WAITING as u32 + 1;
+        let handed_on_while_reading = runtime.block_on({
+            let (arrivals, seen) = (Arc::clone(&arrivals), Arc::clone(&seen));
+            async move {
+                for i in 0..n {
+                    arrivals.arrive(i);
+                    assert!(lock(&arrivals.waiting).len() < MAX_WAITING);
+                }
+                let handed_on = lock(&seen).len();
+                // The last one goes once the reader yields.
+                tokio::task::yield_now().await;
+                handed_on
+            }
+        });
+        assert_eq!(handed_on_while_reading, 3 * MAX_WAITING);
+        assert_eq!(*lock(&seen), (0..n).collect::<Vec<_>>());
     }
 
     #[test]
