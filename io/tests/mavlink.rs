@@ -285,6 +285,9 @@ fn config_readers_survive_odd_text() {
         "[UartEndpoint alpha]\nDevice = ",
         "[UdpEndpoint gcs]\nMode = Normal\nAddress =2127.0.0.\u{0}]\nPort = 145\n",
         "udpout://[::1]]:5",
+        // Found by fuzzing: a main.conf client sending to port 0, which a URI refuses.
+        "[TcpEndpoint c]\nAddress = 10.0.0.2\nPort =0\n",
+        "[UdpEndpoint c]\nAddress = 10.0.0.2\nPort = 0\n",
     ] {
         scripts::check_config(text.as_bytes());
     }

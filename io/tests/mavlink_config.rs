@@ -172,6 +172,8 @@ Colour = blue
 fn main_conf_errors_say_where() {
     let err = |text: &str| from_main_conf(text).unwrap_err().to_string();
     insta::assert_snapshot!(err("[UdpEndpoint a]\nPort = 99999\n"), @r#"[UdpEndpoint a] Port = "99999": not a port"#);
+    insta::assert_snapshot!(err("[TcpEndpoint a]\nAddress = 10.0.0.2\nPort = 0\n"), @"[TcpEndpoint a] Port = 0: nothing can be sent to port 0; give the port the peer listens on");
+    insta::assert_snapshot!(err("[UdpEndpoint a]\nMode = Normal\nAddress = 10.0.0.2\nPort = 0\n"), @"[UdpEndpoint a] Port = 0: nothing can be sent to port 0; give the port the peer listens on");
     insta::assert_snapshot!(err("[UdpEndpoint a]\nMode = Sideways\nPort = 1\n"), @r#"[UdpEndpoint a] Mode = "sideways": expected Normal, Client, Server or Eavesdropping"#);
     insta::assert_snapshot!(err("[UartEndpoint a]\nBaud = 1\n"), @"[UartEndpoint a]: Device is missing");
     // Found by fuzzing: an empty value is no device or address either.

@@ -406,6 +406,15 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
             v.parse::<u16>()
                 .map_err(|_| error(format!("{at} Port = {v:?}: not a port")))
         };
+        // The port a client sends or connects to: 0 is refused, as in an endpoint URI.
+        let sent_to = |port: u16| -> Result<u16, ConfigError> {
+            if port == 0 {
+                return Err(error(format!(
+                    "{at} Port = 0: nothing can be sent to port 0; give the port the peer listens on"
+                )));
+            }
+            Ok(port)
+        };
         let endpoint = match kind.to_ascii_lowercase().as_str() {
             "" => None,
             "general" => {
@@ -460,7 +469,9 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                 let port = port(get("port"))?;
                 match get("mode").map(str::to_ascii_lowercase).as_deref() {
                     Some("server" | "eavesdropping") => Some(Endpoint::UdpIn(address, port)),
-                    Some("normal" | "client") | None => Some(Endpoint::UdpOut(address, port)),
+                    Some("normal" | "client") | None => {
+                        Some(Endpoint::UdpOut(address, sent_to(port)?))
+                    }
                     Some(other) => {
                         return Err(error(format!(
                         "{at} Mode = {other:?}: expected Normal, Client, Server or Eavesdropping"
@@ -477,7 +488,7 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                     return Err(error(format!("{at} Address = {address:?}: not a host")));
                 }
                 let _ = get("retrytimeout");
-                Some(Endpoint::TcpOut(address, port(get("port"))?))
+                Some(Endpoint::TcpOut(address, sent_to(port(get("port"))?)?))
             }
             _ => {
                 config
