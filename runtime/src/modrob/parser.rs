@@ -17,6 +17,12 @@
 //! Every byte fed ends up in a handed-out message, in [`Stats::dropped`], or still in the
 //! parser ([`Parser::pending`]).
 //!
+//! A false start never holds back the message behind it, so the parser keeps
+//! [`Deframer::give_up_stalled`]'s default: a false candidate claims at most 14 bytes, the
+//! shortest message is 12, and a false start is at least two bytes (a 0x5A and a length nibble
+//! of 6 or 8), so the message's own bytes complete the false candidate, whose CRC then fails.
+//! Only noise at the very end of a burst waits in the parser for the next bytes.
+//!
 //! ```
 //! use ferrolink_runtime::modrob::{parser::{Feed, Parser}, uart, Message};
 //!
