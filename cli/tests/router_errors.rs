@@ -18,7 +18,24 @@ fn refused(args: &[&str]) -> String {
 #[test]
 fn a_tlog_in_a_missing_directory() {
     insta::assert_snapshot!(refused(&["--tlog", "/nonexistent/dir/x.tlog", "udpin://127.0.0.1:0"]), @r"
-    --tlog /nonexistent/dir/x.tlog: No such file or directory (os error 2)
+    tlog /nonexistent/dir/x.tlog: No such file or directory (os error 2)
+      hint: the directory /nonexistent/dir does not exist
+    ");
+}
+
+/// The same from mavlink-router's `Log` key, which names a directory: the error names the tlog
+/// by what it is, since no `--tlog` was given.
+#[test]
+fn a_main_conf_log_directory_that_is_missing() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let config = dir.path().join("main.conf");
+    std::fs::write(
+        &config,
+        "[General]\nLog = /nonexistent/dir\n\n[UdpEndpoint a]\nMode = Server\nAddress = 127.0.0.1\nPort = 0\n",
+    )
+    .expect("write");
+    insta::assert_snapshot!(refused(&["--config", config.to_str().expect("utf-8")]), @r"
+    tlog /nonexistent/dir/flight.tlog: No such file or directory (os error 2)
       hint: the directory /nonexistent/dir does not exist
     ");
 }

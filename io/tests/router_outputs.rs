@@ -87,7 +87,7 @@ fn a_tlog_on_a_full_disk_is_given_up_and_routing_goes_on() {
     assert_eq!(got, 50, "heartbeats lost while the tlog failed");
     let e = ended.expect_err("the exit says the tlog was given up");
     assert!(
-        e.to_string().starts_with("--tlog /dev/full: ") && e.to_string().contains("given up"),
+        e.to_string().starts_with("tlog /dev/full: ") && e.to_string().contains("given up"),
         "{e}"
     );
 }
@@ -98,7 +98,10 @@ fn statistics_on_a_full_disk_are_given_up_and_routing_goes_on() {
     let (got, ended) = route_with(|c| c.stats_json = Some(full));
     assert_eq!(got, 50, "heartbeats lost while the statistics failed");
     let e = ended.expect_err("the exit says the statistics were given up");
-    assert!(e.to_string().starts_with("--stats-json /dev/full: "), "{e}");
+    assert!(
+        e.to_string().starts_with("statistics file /dev/full: "),
+        "{e}"
+    );
 }
 
 #[test]

@@ -416,9 +416,10 @@ fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
     state.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// Creates the file an option names; the error names the option and the path, and says when
+/// Creates an output file (`what`: "tlog", "statistics file"); the error names it by what it
+/// is, not by the option (it may come from a configuration file), with the path, and says when
 /// the directory is missing.
-fn create(option: &str, path: &std::path::Path) -> io::Result<File> {
+fn create(what: &str, path: &std::path::Path) -> io::Result<File> {
     File::create(path).map_err(|e| {
         let hint = match path.parent() {
             Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => {
@@ -426,7 +427,7 @@ fn create(option: &str, path: &std::path::Path) -> io::Result<File> {
             }
             _ => String::new(),
         };
-        io::Error::new(e.kind(), format!("{option} {}: {e}{hint}", path.display()))
+        io::Error::new(e.kind(), format!("{what} {}: {e}{hint}", path.display()))
     })
 }
 
@@ -585,11 +586,11 @@ pub fn run_reloading(
         },
     };
     let tlog = match &config.tlog {
-        Some(path) => Some(tlog::Writer::new(BufWriter::new(create("--tlog", path)?))),
+        Some(path) => Some(tlog::Writer::new(BufWriter::new(create("tlog", path)?))),
         None => None,
     };
     let mut stats_json = match &config.stats_json {
-        Some(path) => Some(BufWriter::new(create("--stats-json", path)?)),
+        Some(path) => Some(BufWriter::new(create("statistics file", path)?)),
         None => None,
     };
     let state = Arc::new(Mutex::new(State {
@@ -687,13 +688,17 @@ pub fn run_reloading(
         // given up; routing goes on.
         if let Some(e) = s.tlog_error.take() {
             s.tlog = None;
-            failed.get_or_insert(give_up("--tlog", config.tlog.as_deref(), &e));
+            failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
         }
         if now >= next_json {
             if let Some(out) = &mut stats_json {
                 if let Err(e) = write_json(out, &s) {
                     stats_json = None;
-                    failed.get_or_insert(give_up("--stats-json", config.stats_json.as_deref(), &e));
+                    failed.get_or_insert(give_up(
+                        "statistics file",
+                        config.stats_json.as_deref(),
+                        &e,
+                    ));
                 }
             }
             next_json += Duration::from_secs(1);
@@ -716,25 +721,26 @@ pub fn run_reloading(
     let mut s = lock(&state);
     if let Some(out) = &mut stats_json {
         if let Err(e) = write_json(out, &s).and_then(|()| out.flush()) {
-            failed.get_or_insert(give_up("--stats-json", config.stats_json.as_deref(), &e));
+            failed.get_or_insert(give_up("statistics file", config.stats_json.as_deref(), &e));
         }
     }
     let log_error = s.tlog_error.take();
     if let Some(e) = log_error.or_else(|| s.tlog.as_mut().and_then(|l| l.flush().err())) {
-        failed.get_or_insert(give_up("--tlog", config.tlog.as_deref(), &e));
+        failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
     }
     // An output given up makes the exit status say so, once everything else is done.
     failed.map_or(Ok(()), Err)
 }
 
-/// The error of the output of `option` (written to `path`, else to stdout) that failed with
-/// `e`: said on stderr at once, since routing goes on without that output.
-fn give_up(option: &str, path: Option<&std::path::Path>, e: &io::Error) -> io::Error {
+/// The error of the output `what` (a file by what it is, `--stats` by its option, the only way
+/// to ask for it), written to `path` (else to stdout), that failed with `e`:
+/// said on stderr at once, since routing goes on without that output.
+fn give_up(what: &str, path: Option<&std::path::Path>, e: &io::Error) -> io::Error {
     let to = path.map_or_else(|| "stdout".to_owned(), |p| p.display().to_string());
-    eprintln!("{option} {to}: {e}; no more is written to it, routing goes on");
+    eprintln!("{what} {to}: {e}; no more is written to it, routing goes on");
     io::Error::new(
         e.kind(),
-        format!("{option} {to}: {e} (given up while routing)"),
+        format!("{what} {to}: {e} (given up while routing)"),
     )
 }
 
