@@ -15,6 +15,7 @@ use crate::schemes::{Extra, EXTENSIONS};
 use ferrolink_io::link::{OutputQueue, Overflow};
 use ferrolink_io::mavlink::config::{self, EndpointConfig, FileConfig};
 use ferrolink_io::mavlink::{router, tlog};
+use ferrolink_runtime::mavlink::router::LinkConfig;
 
 use ferrolink_traffic::{CsvExport, RowMeta};
 
@@ -137,7 +138,7 @@ pub enum Command {
 /// The router's `zenoh://` endpoints.
 #[cfg(feature = "zenoh")]
 fn zenoh_endpoints(
-    uris: Vec<Extra>,
+    uris: Vec<(Extra, LinkConfig)>,
     dialects: Dialects,
 ) -> Result<Vec<router::Attached>, Box<dyn std::error::Error>> {
     use ferrolink_zenoh::mavlink;
@@ -151,16 +152,16 @@ fn zenoh_endpoints(
     };
     Ok(uris
         .into_iter()
-        .map(|uri| mavlink::attached(uri, dictionaries.clone()))
+        .map(|(uri, link)| mavlink::attached(uri, link, dictionaries.clone()))
         .collect())
 }
 
 #[cfg(not(feature = "zenoh"))]
 fn zenoh_endpoints(
-    uris: Vec<Extra>,
+    uris: Vec<(Extra, LinkConfig)>,
     _: Dialects,
 ) -> Result<Vec<router::Attached>, Box<dyn std::error::Error>> {
-    Ok(uris.into_iter().map(|never| match never {}).collect())
+    Ok(uris.into_iter().map(|(never, _)| match never {}).collect())
 }
 
 /// `ferrolink mavlink fleet`.
@@ -261,7 +262,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 None => FileConfig::default(),
             };
             let mut given = Vec::new();
-            let mut zenoh = Vec::new();
+            let mut zenoh = file.extra.clone();
             for uri in &endpoints {
                 match ferrolink_io::mavlink::ENDPOINTS.parse_with(uri, EXTENSIONS)? {
                     Target::Link(endpoint, _) => {
@@ -269,7 +270,13 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                         endpoint.link.dedup_window_us = dedup_ms.saturating_mul(1000);
                         given.push(endpoint);
                     }
-                    Target::Other(uri) => zenoh.push(uri),
+                    Target::Other(uri) => {
+                        let link = LinkConfig {
+                            dedup_window_us: dedup_ms.saturating_mul(1000),
+                            ..LinkConfig::default()
+                        };
+                        zenoh.push((uri, link));
+                    }
                 }
             }
             let all = [file.endpoints.clone(), given.clone()].concat();
@@ -292,7 +299,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 one_frame_per_datagram: one_frame_per_datagram
                     || file.one_frame_per_datagram.unwrap_or(false),
             };
-            let (stop, reload) = signals(config_path, given)?;
+            let (stop, reload) = signals(config_path, given, file.extra)?;
             router::run_reloading(&config, attached, &stop, reload)?;
             Ok(ExitCode::SUCCESS)
         }
@@ -324,6 +331,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
 fn signals(
     config: Option<PathBuf>,
     given: Vec<EndpointConfig>,
+    extra: Vec<(Extra, LinkConfig)>,
 ) -> io::Result<(Arc<AtomicBool>, Option<router::Reload>)> {
     use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
     use std::sync::atomic::Ordering;
@@ -356,7 +364,15 @@ fn signals(
     let endpoints: Box<dyn Fn() -> Result<Vec<EndpointConfig>, String> + Send> = match config {
         Some(path) => Box::new(move || {
             eprintln!("SIGHUP: reloading {}", path.display());
-            Ok([read_config(&path)?.endpoints, given.clone()].concat())
+            let file = read_config(&path)?;
+            if file.extra != extra {
+                eprintln!(
+                    "reload: {}: its zenoh:// endpoints changed, and they are opened once, at \
+                     start: the running ones are kept\n  hint: restart the router to change them",
+                    path.display()
+                );
+            }
+            Ok([file.endpoints, given.clone()].concat())
         }),
         None => Box::new(|| Err("SIGHUP, but there is no configuration file to reload".into())),
     };
@@ -383,13 +399,14 @@ fn ignored(signal: i32) -> bool {
         .is_some_and(|mask| mask >> (signal - 1) & 1 == 1)
 }
 
-/// Reads a router configuration file, printing its warnings.
-fn read_config(path: &Path) -> Result<FileConfig, String> {
+/// Reads a router configuration file, printing its warnings. A TOML file may have `zenoh://`
+/// endpoints too.
+fn read_config(path: &Path) -> Result<FileConfig<Extra>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let parsed = if path.extension().is_some_and(|e| e == "toml") {
-        config::from_toml(&text, path.parent().unwrap_or(Path::new(".")))
+        config::from_toml_with(&text, path.parent().unwrap_or(Path::new(".")), EXTENSIONS)
     } else {
-        config::from_main_conf(&text)
+        config::from_main_conf(&text).map(FileConfig::with_extra)
     };
     let file = parsed.map_err(|e| e.in_file(path))?;
     for w in &file.warnings {

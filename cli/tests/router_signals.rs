@@ -211,3 +211,46 @@ fn an_idle_router_sleeps_until_a_signal_wakes_it() {
     // SIGTERM still stops it at once (`stop` waits at most 5 s).
     stop(router);
 }
+
+/// A `zenoh://` endpoint of the file is opened once, at start: a reload that leaves it as it
+/// was says nothing of it, one that changes it keeps the running one and says so.
+#[cfg(feature = "zenoh")]
+#[test]
+fn sighup_keeps_the_zenoh_endpoint_and_says_when_it_changed() {
+    let dir = tempfile::tempdir().expect("scratch");
+    let config = dir.path().join("router.toml");
+    let (a, b, c, z) = (free_port(), free_port(), free_port(), free_port());
+    let write = |ports: &[u16], zenoh_port: u16| {
+        write_config(&config, ports);
+        let zenoh = format!(
+            "[[endpoint]]\nuri = \"zenoh://?mode=peer&listen=tcp/127.0.0.1:{zenoh_port}\
+             &prefix=reload{z}\"\n"
+        );
+        let text = std::fs::read_to_string(&config).expect("read") + &zenoh;
+        std::fs::write(&config, text).expect("config written");
+    };
+    write(&[a, b], z);
+    let mut router = start("", &["--config".into(), config.display().to_string()]);
+    assert!(routes(a, b), "A to B before the reloads");
+
+    // The UDP endpoints change, the Zenoh one does not.
+    write(&[a, c], z);
+    signal(&router, "HUP");
+    thread::sleep(Duration::from_millis(500));
+    assert!(routes(a, c), "A to C after the first reload");
+
+    // The Zenoh one changes: kept as it runs, with a note.
+    write(&[a, c], free_port());
+    signal(&router, "HUP");
+    thread::sleep(Duration::from_millis(500));
+    assert!(alive(&mut router), "SIGHUP ended the router");
+    assert!(routes(a, c), "A to C after the second reload");
+
+    let err = stop(router);
+    assert_eq!(
+        err.matches("its zenoh:// endpoints changed").count(),
+        1,
+        "{err}"
+    );
+    assert!(err.contains("restart the router to change them"), "{err}");
+}

@@ -1,7 +1,7 @@
 //! Two routers joined by Zenoh: the frames one read from Zenoh brings go to a UDP ground station
 //! in shared datagrams, whole and in order, as frames read from a UDP socket do. Before, each
 //! frame was a datagram of its own (one `sendto` per frame and peer, the largest cost of a
-//! router fed by Zenoh).
+//! router fed by Zenoh). And a Zenoh endpoint from the configuration file, with its filter.
 #![cfg(feature = "zenoh")]
 
 mod common;
@@ -54,8 +54,8 @@ impl Drop for Router {
     }
 }
 
-/// The frames in one datagram: (message id, PING number).
-fn frames(datagram: &[u8]) -> Vec<(u32, u32)> {
+/// The frames in one datagram: (message id, PING number, source system).
+fn frames(datagram: &[u8]) -> Vec<(u32, u32, u8)> {
     let mut out = Vec::new();
     let mut rest = datagram;
     while rest.len() >= 12 {
@@ -68,6 +68,7 @@ fn frames(datagram: &[u8]) -> Vec<(u32, u32)> {
         out.push((
             id,
             u32::from_le_bytes([payload[8], payload[9], payload[10], payload[11]]),
+            rest[5],
         ));
         rest = &rest[len..];
     }
@@ -134,5 +135,70 @@ fn frames_from_zenoh_share_datagrams_to_a_udp_peer() {
     assert!(
         datagrams < PINGS / 2,
         "{PINGS} PINGs came in {datagrams} datagrams"
+    );
+}
+
+/// A `zenoh://` endpoint from the TOML configuration file, with a filter: the routers meet over
+/// it, and the filter holds (PINGs from Zenoh are blocked, heartbeats pass).
+#[test]
+fn a_zenoh_endpoint_from_the_configuration_file_keeps_its_filter() {
+    let (p_source, p_gcs, p_zenoh) = (free_port(), free_port(), free_port());
+    let dir = tempfile::tempdir().expect("temp dir");
+    let config = dir.path().join("router.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[[endpoint]]\n\
+             uri = \"zenoh://?mode=peer&listen=tcp/127.0.0.1:{p_zenoh}&prefix=file{p_zenoh}\"\n\
+             block_msg_in = [4]\n\n\
+             [[endpoint]]\n\
+             uri = \"udpin://127.0.0.1:{p_gcs}\"\n"
+        ),
+    )
+    .expect("write");
+    let _b = Router::start(&["--config".into(), config.to_str().expect("utf-8").into()]);
+    let _a = Router::start(&[
+        format!("udpin://127.0.0.1:{p_source}"),
+        format!("zenoh://?mode=peer&connect=tcp/127.0.0.1:{p_zenoh}&prefix=file{p_zenoh}"),
+    ]);
+
+    let gcs = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    gcs.connect(("127.0.0.1", p_gcs)).expect("connect");
+    gcs.set_read_timeout(Some(Duration::from_millis(200)))
+        .expect("timeout");
+    let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    source.connect(("127.0.0.1", p_source)).expect("connect");
+    let mut buf = [0u8; 65536];
+    let mut heard = |gcs: &UdpSocket| {
+        gcs.recv(&mut buf)
+            .map(|n| frames(&buf[..n]))
+            .unwrap_or_default()
+    };
+
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        assert!(Instant::now() < deadline, "Zenoh never joined the routers");
+        gcs.send(&heartbeat(255)).expect("send");
+        source.send(&heartbeat(1)).expect("send");
+        if heard(&gcs).iter().any(|f| f.0 == 0) {
+            break;
+        }
+    }
+    // PINGs, then a heartbeat of system 2 behind them on the same path: once it is in, so
+    // would they be.
+    for n in 0..20 {
+        source.send(&ping(n)).expect("send");
+    }
+    source.send(&heartbeat(2)).expect("send");
+    let marker = |f: &(u32, u32, u8)| f.0 == 0 && f.2 == 2;
+    let mut got = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !got.iter().any(marker) && Instant::now() < deadline {
+        got.extend(heard(&gcs));
+    }
+    assert!(got.iter().any(marker), "the heartbeat behind the PINGs");
+    assert!(
+        got.iter().all(|f| f.0 != 4),
+        "a PING passed the filter: {got:?}"
     );
 }

@@ -4,7 +4,8 @@ use std::path::Path;
 use std::time::Duration;
 
 use ferrolink_io::link::Endpoint;
-use ferrolink_io::mavlink::config::{from_main_conf, from_toml};
+use ferrolink_io::mavlink::config::{from_main_conf, from_toml, from_toml_with};
+use ferrolink_io::uri::{Extension, UriError};
 
 #[test]
 fn toml_with_filters_groups_and_signing() {
@@ -187,4 +188,50 @@ fn main_conf_errors_say_where() {
       hint: write it as [UdpEndpoint a]
     "#);
     insta::assert_snapshot!(err("[UdpEndpoint a]\nPort = 1\nAllowMsgIdOut = 1,x\n"), @r#"[UdpEndpoint a] allowmsgidout: "x" is not a valid number"#);
+}
+
+/// A scheme the caller registers (as the CLI registers `zenoh://`): its endpoints land in
+/// `extra`, in file order, with their filters and group; one that does not parse is refused
+/// with the scheme's own error; without the extension, the scheme is unknown.
+#[test]
+fn toml_endpoints_of_a_scheme_the_caller_registers() {
+    const SCHEMES: &[Extension<String>] = &[Extension {
+        scheme: "bus",
+        usage: "bus://NAME",
+        parse: |uri| match uri.strip_prefix("bus://") {
+            Some(name) if !name.is_empty() => Ok(name.to_owned()),
+            _ => Err(UriError::new(uri, 6, "a bus needs a name")),
+        },
+    }];
+    let text = r#"
+[[endpoint]]
+uri = "bus://left"
+group = "buses"
+block_msg_in = [4]
+
+[[endpoint]]
+uri = "udpin://127.0.0.1:14550"
+
+[[endpoint]]
+uri = "bus://right"
+group = "buses"
+"#;
+    let c = from_toml_with(text, Path::new("."), SCHEMES).unwrap();
+    assert_eq!(c.endpoints.len(), 1);
+    let names: Vec<&str> = c.extra.iter().map(|(name, _)| name.as_str()).collect();
+    assert_eq!(names, ["left", "right"]);
+    let (left, right) = (&c.extra[0].1, &c.extra[1].1);
+    assert!(left.group != 0 && left.group == right.group, "one group");
+    assert_eq!(left.inbound.block_msg.as_slice(), [4]);
+    assert!(right.inbound.block_msg.is_empty());
+
+    let bad = "[[endpoint]]\nuri = \"bus://\"\n";
+    insta::assert_snapshot!(from_toml_with(bad, Path::new("."), SCHEMES).unwrap_err(), @r"
+    endpoint #1 (bus://): a bus needs a name
+      bus://
+            ^
+      hint: bus://NAME
+    ");
+    let err = from_toml("[[endpoint]]\nuri = \"bus://left\"\n", Path::new(".")).unwrap_err();
+    assert!(err.to_string().contains("unknown scheme \"bus\""), "{err}");
 }

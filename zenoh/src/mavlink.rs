@@ -54,13 +54,14 @@ pub struct Dictionaries {
     pub decoder: Arc<PayloadDecoder>,
 }
 
-/// The Zenoh endpoint of `uri` as an endpoint the router daemon attaches.
-pub fn attached(uri: ZenohUri, dictionaries: Dictionaries) -> Attached {
+/// The Zenoh endpoint of `uri` as an endpoint the router daemon attaches, its links configured
+/// by `link` (filters, group, signing; a sample is always one whole frame).
+pub fn attached(uri: ZenohUri, link: LinkConfig, dictionaries: Dictionaries) -> Attached {
     Attached {
         // Every sample is one whole frame.
         link: LinkConfig {
             datagrams: true,
-            ..LinkConfig::default()
+            ..link
         },
         open: Box::new(move |index, sink, status| {
             let running = open(index, &uri, dictionaries, sink, status)?;

@@ -25,6 +25,9 @@
 //! signing_key = "00..1f"          # 64 hex digits: accept only frames signed with this key
 //! ```
 //!
+//! An endpoint's `uri` may also be of a scheme the caller registers ([`from_toml_with`]; the
+//! CLI registers `zenoh://`); such endpoints land in [`FileConfig::extra`].
+//!
 //! `main.conf` (the keys people use): `[General]` `TcpServerPort`, `Log` (a directory: the tlog
 //! goes there), `DeduplicationPeriod` (ms); `[UartEndpoint NAME]` `Device`, `Baud` (the first of
 //! a list); `[UdpEndpoint NAME]` `Mode` (`Normal`/`Client` sends to `Address:Port`, `Server` or
@@ -45,7 +48,7 @@ use ferrolink_runtime::mavlink::v2;
 use serde::Deserialize;
 
 use crate::link::{Endpoint, OutputQueue, Overflow};
-use crate::uri::is_host;
+use crate::uri::{is_host, Extension, Target};
 
 /// An endpoint and how its links behave.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -66,11 +69,15 @@ impl EndpointConfig {
     }
 }
 
-/// What a configuration file says.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct FileConfig {
+/// What a configuration file says. `X` is what the URIs of the caller's own schemes parse to
+/// (see [`from_toml_with`]); with none, `()`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FileConfig<X = ()> {
     /// Endpoints, in file order.
     pub endpoints: Vec<EndpointConfig>,
+    /// Endpoints of the caller's schemes (`zenoh://`, say), in file order, each with the
+    /// configuration of its links.
+    pub extra: Vec<(X, LinkConfig)>,
     /// Dialect files (relative paths resolved against the file's folder).
     pub dialects: Vec<PathBuf>,
     /// Where to write the tlog.
@@ -85,6 +92,40 @@ pub struct FileConfig {
     pub one_frame_per_datagram: Option<bool>,
     /// Problems that did not stop the file from being read (unknown keys).
     pub warnings: Vec<String>,
+}
+
+impl<X> Default for FileConfig<X> {
+    fn default() -> Self {
+        FileConfig {
+            endpoints: Vec::new(),
+            extra: Vec::new(),
+            dialects: Vec::new(),
+            tlog: None,
+            stats_json: None,
+            peer_expiry: None,
+            queue: None,
+            one_frame_per_datagram: None,
+            warnings: Vec::new(),
+        }
+    }
+}
+
+impl FileConfig {
+    /// The same settings, for a caller with schemes of its own (none of which this file uses:
+    /// `main.conf` has no way to name them).
+    pub fn with_extra<X>(self) -> FileConfig<X> {
+        FileConfig {
+            endpoints: self.endpoints,
+            extra: Vec::new(),
+            dialects: self.dialects,
+            tlog: self.tlog,
+            stats_json: self.stats_json,
+            peer_expiry: self.peer_expiry,
+            queue: self.queue,
+            one_frame_per_datagram: self.one_frame_per_datagram,
+            warnings: self.warnings,
+        }
+    }
 }
 
 /// A configuration file that cannot be used: where (line and column, when the syntax is at
@@ -271,6 +312,17 @@ fn key(text: &str, at: &str) -> Result<SecretKey, ConfigError> {
 
 /// Reads our TOML form. `base` is the file's folder, for relative dialect paths.
 pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
+    from_toml_with(text, base, &[])
+}
+
+/// Reads our TOML form, where an endpoint's `uri` may also be of one of `extensions` (the CLI
+/// registers `zenoh://`): such endpoints land in [`FileConfig::extra`], with their filters,
+/// group and key like any other.
+pub fn from_toml_with<X>(
+    text: &str,
+    base: &Path,
+    extensions: &[Extension<X>],
+) -> Result<FileConfig<X>, ConfigError> {
     let file: TomlFile = toml::from_str(text).map_err(|e| {
         let at = e.span().and_then(|s| text.get(s.start..)).unwrap_or("");
         // `[endpoint]` where `[[endpoint]]` was meant: one table, not a list of them.
@@ -295,10 +347,11 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
     })?;
     let mut groups = Groups::default();
     let mut endpoints = Vec::new();
+    let mut extra = Vec::new();
     for (i, e) in file.endpoint.iter().enumerate() {
         let at = format!("endpoint #{} ({})", i + 1, e.uri);
-        let endpoint = super::ENDPOINTS
-            .endpoint(&e.uri)
+        let target = super::ENDPOINTS
+            .parse_with(&e.uri, extensions)
             .map_err(|err| error(format!("{at}: {err}")))?;
         let link = LinkConfig {
             inbound: Filter {
@@ -328,7 +381,10 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
             // Set from the endpoint's kind and place when the router opens its links.
             datagrams: false,
         };
-        endpoints.push(EndpointConfig { endpoint, link });
+        match target {
+            Target::Link(endpoint, _) => endpoints.push(EndpointConfig { endpoint, link }),
+            Target::Other(x) => extra.push((x, link)),
+        }
     }
     let peer_expiry = file
         .peer_expiry
@@ -338,6 +394,7 @@ pub fn from_toml(text: &str, base: &Path) -> Result<FileConfig, ConfigError> {
         .transpose()?;
     Ok(FileConfig {
         endpoints,
+        extra,
         dialects: file.dialects.iter().map(|d| base.join(d)).collect(),
         tlog: file.tlog,
         stats_json: file.stats_json,
