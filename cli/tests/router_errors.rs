@@ -127,6 +127,20 @@ fn the_same_port_twice() {
     ");
 }
 
+/// A Zenoh endpoint listening where another program listens: said as for UDP and TCP.
+#[cfg(feature = "zenoh")]
+#[test]
+fn a_zenoh_listen_port_taken() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").expect("bind");
+    let port = taken.local_addr().expect("addr").port();
+    let uri = format!("zenoh://?mode=peer&listen=tcp/127.0.0.1:{port}");
+    let err = refused(&[&uri, "udpin://127.0.0.1:0"]).replace(&port.to_string(), "PORT");
+    insta::assert_snapshot!(err, @r"
+    zenoh://?mode=peer&listen=tcp/127.0.0.1:PORT&encoding=raw&prefix=ferrolink: listen=tcp/127.0.0.1:PORT: Address already in use (os error 98)
+      hint: another program (or another endpoint given here) listens on this port; `ss -lunp` and `ss -ltnp` name it
+    ");
+}
+
 // The hint lists the forms this build accepts, Zenoh's among them.
 #[cfg(feature = "zenoh")]
 #[test]

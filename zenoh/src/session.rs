@@ -86,12 +86,50 @@ pub struct Running {
     queryables: Vec<Queryable<()>>,
 }
 
+/// A `listen=tcp/HOST:PORT` (or `udp/`) whose port another program already listens on, as
+/// the link layer words it: Zenoh's own error would say so too, buried in its source paths.
+fn taken_port(uri: &ZenohUri) -> io::Result<()> {
+    use std::net::{TcpListener, ToSocketAddrs, UdpSocket};
+    for locator in &uri.listen {
+        let Some((proto, address)) = locator.split_once('/') else {
+            continue;
+        };
+        // Options after `#`, interfaces after `%` or `?` are Zenoh's to read.
+        let address = address.split(['#', '?']).next().unwrap_or_default();
+        let Some(addr) = address.to_socket_addrs().ok().and_then(|mut a| a.next()) else {
+            continue;
+        };
+        if addr.port() == 0 {
+            continue;
+        }
+        let bound = match proto {
+            "tcp" => TcpListener::bind(addr).map(drop),
+            "udp" => UdpSocket::bind(addr).map(drop),
+            _ => continue,
+        };
+        if let Err(e) = bound {
+            if e.kind() != io::ErrorKind::AddrInUse {
+                continue;
+            }
+            return Err(io::Error::new(
+                e.kind(),
+                format!(
+                    "{uri}: listen={locator}: {e}\n  hint: another program (or another endpoint \
+                     given here) listens on this port; `ss -lunp` and `ss -ltnp` name it"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 impl Running {
     /// Joins the network `uri` names.
     pub(crate) fn open(uri: &ZenohUri) -> io::Result<Running> {
         let name = uri.to_string();
         check_runtime_variable()?;
         let config = uri.config().map_err(io::Error::other)?;
+        taken_port(uri)?;
         let session = zenoh::open(config)
             .wait()
             .map_err(|e| io::Error::other(format!("{name}: {e}")))?;
