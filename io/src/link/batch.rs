@@ -338,8 +338,8 @@ pub(crate) struct Inbox {
     ring: Option<Option<Ring>>,
     /// The socket's read timeout, for a blocking receive: relative to each receive, so one set
     /// for `until` at `set_at` may wake late by as much as a receive starts after `set_at`. It
-    /// is set again when `until` moves or it would wake later than `tolerance`, not on every
-    /// receive: one system call fewer per batch.
+    /// is set again only when a receive would wake more than `tolerance` away from the `until`
+    /// it is given, not on every receive: one system call fewer per batch.
     timeout: Option<(Option<Instant>, Instant)>,
     tolerance: Duration,
 }
@@ -443,13 +443,20 @@ impl Inbox {
         Ok(1)
     }
 
-    /// Sets the socket's read timeout for `until`, when the one set would not do.
+    /// Sets the socket's read timeout for `until`, when the one set would not do: a receive
+    /// starting now would wake more than `tolerance` before or after `until`.
     fn wait_until(&mut self, socket: &UdpSocket, until: Option<Instant>) {
         let now = Instant::now();
         let tolerance = self.tolerance;
-        if self.timeout.is_none_or(|(set_for, set_at)| {
-            set_for != until || (until.is_some() && now - set_at > tolerance)
-        }) {
+        let fits = match (self.timeout, until) {
+            (Some((None, _)), None) => true,
+            (Some((Some(set_for), set_at)), Some(until)) => {
+                let wakes = now + set_for.saturating_duration_since(set_at);
+                wakes <= until + tolerance && until <= wakes + tolerance
+            }
+            _ => false,
+        };
+        if !fits {
             let wait = until.map(|t| {
                 t.saturating_duration_since(now)
                     .max(Duration::from_millis(1))

@@ -511,6 +511,10 @@ fn is_icmp_noise(e: &io::Error) -> bool {
     )
 }
 
+/// Up to how many peers a UDP reader keeps its sweep's time exact (it looks at each peer after
+/// every batch for it).
+const EXACT_SWEEP_PEERS: usize = 16;
+
 fn udp_in(
     index: usize,
     name: &str,
@@ -521,7 +525,9 @@ fn udp_in(
 ) {
     let expiry = options.peer_expiry;
     let mut peers: HashMap<SocketAddr, (PeerId, Instant)> = HashMap::new();
-    // When the quietest peer would expire: the only reason to wake without a datagram.
+    // When the quietest peer would expire: the only reason to wake without a datagram. With
+    // a few peers it is kept exact after every batch, so that the reader wakes only for a peer
+    // that has gone quiet; with more, it may come early, and the sweep then sets it anew.
     let mut sweep_at: Option<Instant> = None;
     // A sweep may come up to a sixteenth of the expiry late.
     let mut inbox = batch::Inbox::new(expiry / 16);
@@ -592,6 +598,9 @@ fn udp_in(
         });
         if !listening {
             return;
+        }
+        if peers.len() <= EXACT_SWEEP_PEERS {
+            sweep_at = peers.values().map(|(_, last)| *last + expiry).min();
         }
     }
 }
