@@ -125,6 +125,145 @@ fn three_bridges_over_udp() {
     assert_eq!(last(&b, "missed")["total"], 0);
 }
 
+/// A bridge that prints every frame to a standard output nobody reads (a terminal paused with
+/// Ctrl-S, a pager left open) loses lines, not frames: it goes on answering pings. Before, its
+/// one loop waited on stdout, so nothing was forwarded or answered, and what arrived piled up in
+/// memory.
+#[test]
+fn a_bridge_whose_stdout_is_not_read_forwards_on() {
+    let (xy, yx) = (free_port(), free_port());
+    let x = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{xy}:{yx}"),
+        s("-i"),
+        s(1),
+        s("--print"),
+        s("all"),
+        s("--run-for"),
+        s(3.5),
+    ]);
+    if !ferrolink_test_support::shrink_pipe(x.stdout.as_ref().expect("stdout")) {
+        eprintln!("note: pipes cannot be shrunk here; a full stdout is not tried");
+    }
+    sleep(Duration::from_millis(300));
+    // A hundred pings a second, each printed with its answer: a page of pipe fills at once.
+    let y = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{yx}:{xy}"),
+        s("-i"),
+        s(2),
+        s("--ping"),
+        s(1),
+        s("--ping-every"),
+        s(0.01),
+        s("--run-for"),
+        s(2.5),
+    ]);
+    let y = events(y);
+    let pings = last(&y, "stats")["pings_sent"].as_u64().expect("pings");
+    let answered = last(&y, "stats")["pings_answered"]
+        .as_u64()
+        .expect("answered");
+    assert!(pings >= 100, "{pings} pings");
+    assert!(
+        answered * 10 >= pings * 9,
+        "{answered} of {pings} pings answered"
+    );
+    let out = x.wait_with_output().expect("finishes");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A peer that floods the bridge faster than it forwards costs bounded memory: what it sends
+/// beyond [`BACKLOG_BYTES`] waiting is dropped and counted as its `rx_overruns`, and pings on
+/// another interface are still answered. Before, every datagram waited in an unbounded queue:
+/// 360 MB after 8 s of one Python flood.
+///
+/// [`BACKLOG_BYTES`]: ferrolink_io::ndlcom::bridge::BACKLOG_BYTES
+#[test]
+fn a_flooding_peer_costs_bounded_memory_and_only_its_own_frames() {
+    let (fx, xf, xy, yx) = (free_port(), free_port(), free_port(), free_port());
+    let x = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{fx}:{xf}"),
+        s("-u"),
+        format!("udp://127.0.0.1:{xy}:{yx}"),
+        s("-i"),
+        s(1),
+        s("--run-for"),
+        s(4.0),
+    ]);
+    sleep(Duration::from_millis(300));
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flood = {
+        let stop = stop.clone();
+        std::thread::spawn(move || {
+            // Broadcasts, 20 frames a datagram.
+            let frame = [
+                0x7e, 0xff, 0x02, 0x03, 0x05, 0x01, 0x02, 0x03, 0x04, 0x05, 0x34, 0xa8, 0x7e,
+            ]
+            .repeat(20);
+            let socket = std::net::UdpSocket::bind(("127.0.0.1", xf)).expect("bind");
+            let mut sent = 0u64;
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                for _ in 0..100 {
+                    let _ = socket.send_to(&frame, ("127.0.0.1", fx));
+                    sent += 1;
+                }
+            }
+            sent
+        })
+    };
+    let y = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{yx}:{xy}"),
+        s("-i"),
+        s(2),
+        s("--ping"),
+        s(1),
+        s("--ping-every"),
+        s(0.05),
+        s("--run-for"),
+        s(2.5),
+    ]);
+    let mut most_kb = 0;
+    for _ in 0..25 {
+        sleep(Duration::from_millis(100));
+        let status =
+            std::fs::read_to_string(format!("/proc/{}/status", x.id())).unwrap_or_default();
+        if let Some(kb) = status
+            .lines()
+            .find_map(|l| l.strip_prefix("VmRSS:"))
+            .and_then(|v| v.split_whitespace().next()?.parse::<u64>().ok())
+        {
+            most_kb = most_kb.max(kb);
+        }
+    }
+    let y = events(y);
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let sent = flood.join().expect("flooded");
+    let x = events(x);
+    assert!(
+        most_kb < 64 * 1024,
+        "{most_kb} kB resident after {sent} datagrams"
+    );
+    let pings = last(&y, "stats")["pings_sent"].as_u64().expect("pings");
+    let answered = last(&y, "stats")["pings_answered"]
+        .as_u64()
+        .expect("answered");
+    assert!(
+        answered * 10 >= pings * 8,
+        "{answered} of {pings} pings answered"
+    );
+    // What the flood brought in and what it lost add up to no more than it sent.
+    let taken = stat(&x, 0, "rx_bytes") / 13 / 20;
+    let overruns = stat(&x, 0, "rx_overruns");
+    assert!(taken + overruns <= sent, "{taken} + {overruns} > {sent}");
+}
+
 #[test]
 fn two_bridges_over_a_pty() {
     let dir = tempfile::tempdir().expect("tempdir");

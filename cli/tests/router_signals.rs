@@ -1,7 +1,7 @@
 //! `ferrolink mavlink router` takes signals as daemons do: SIGHUP reloads the endpoints of the
 //! configuration file and keeps the router running; without a file it is logged and ignored;
 //! under `nohup` (SIGHUP ignored from the start) it stays ignored; SIGTERM stops the router with
-//! status 0.
+//! status 0. A standard output nobody reads holds none of it up.
 //!
 //! Before, SIGHUP ended the router even under `nohup`, so a router started from an SSH session
 //! died with the session.
@@ -276,6 +276,32 @@ fn readers_whose_peers_keep_talking_wake_only_for_their_datagrams() {
         sleeps <= datagrams + 4,
         "{sleeps} wake-ups for {datagrams} datagrams"
     );
+}
+
+/// A router whose standard output nobody reads (a terminal paused with Ctrl-S, a pipe into a
+/// program that stopped) goes on routing, and stops on SIGTERM. Before, it printed the
+/// statistics table while holding the routing lock: once the pipe was full nothing was routed,
+/// and SIGTERM did nothing.
+#[test]
+fn a_router_whose_stdout_is_not_read_routes_on_and_stops_on_sigterm() {
+    let (a, b) = (free_port(), free_port());
+    let router = start(
+        "",
+        &[
+            format!("udpin://127.0.0.1:{a}"),
+            format!("udpin://127.0.0.1:{b}"),
+            "--stats".into(),
+            "0.1".into(),
+        ],
+    );
+    if !ferrolink_test_support::shrink_pipe(router.stdout.as_ref().expect("stdout")) {
+        eprintln!("note: pipes cannot be shrunk here; a full stdout is not tried");
+    }
+    // Ten tables a second fill a page of pipe within a second.
+    assert!(routes(a, b), "A to B at first");
+    thread::sleep(Duration::from_secs(2));
+    assert!(routes(a, b), "A to B with stdout full");
+    stop(router);
 }
 
 /// A `zenoh://` endpoint of the file is opened once, at start: a reload that leaves it as it

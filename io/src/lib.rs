@@ -21,6 +21,7 @@ pub mod link;
 pub mod mavlink;
 pub mod modrob;
 pub mod ndlcom;
+pub mod printer;
 pub mod seconds;
 mod serial;
 mod tcp;

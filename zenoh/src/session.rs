@@ -312,10 +312,11 @@ impl Rejections {
             .is_none_or(|t| now.duration_since(t) >= Duration::from_secs(1))
         {
             self.last_note = Some(now);
-            eprintln!(
+            // Through the printer: this runs on Zenoh's thread, which must not wait on stderr.
+            let _ = ferrolink_io::printer::stderr().line(format!(
                 "zenoh: sample on {key} rejected ({} so far): {why}",
                 self.count
-            );
+            ));
         }
     }
 

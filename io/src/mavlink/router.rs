@@ -30,6 +30,7 @@ use serde_json::json;
 use super::config::EndpointConfig;
 use super::{tlog, unix_us};
 use crate::link::{self, Event, OutputQueue, Overflow, PeerId, Sender};
+use crate::printer::{self, Printer};
 
 /// What the router daemon does.
 #[derive(Debug, Clone, Default)]
@@ -157,7 +158,7 @@ impl State {
             Event::Down { peer, why } => {
                 self.waiting.remove(&peer);
                 if let Some((link, totals)) = self.close(peer) {
-                    eprintln!("link down: {}: {why} ({totals})", link.name);
+                    say(format!("link down: {}: {why} ({totals})", link.name));
                 }
             }
         }
@@ -268,12 +269,12 @@ impl State {
             return false;
         };
         link.sender.close();
-        eprintln!(
+        say(format!(
             "link closed to make room: {}: no checked frame from it for {} s, and all \
              {MAX_LINKS} links in use ({totals})",
             link.name,
             now_us.saturating_sub(link.heard_us) / 1_000_000
-        );
+        ));
         true
     }
 
@@ -339,18 +340,22 @@ impl State {
                 // A TCP client: closed at once, so it holds no thread or descriptor here; it
                 // may connect again.
                 self.refused += 1;
-                eprintln!("link refused and closed: {name}: all {MAX_LINKS} links in use");
+                say(format!(
+                    "link refused and closed: {name}: all {MAX_LINKS} links in use"
+                ));
                 return false;
             }
             if !refused {
                 self.refused += 1;
-                eprintln!("link refused for now: {name}: all {MAX_LINKS} links in use");
+                say(format!(
+                    "link refused for now: {name}: all {MAX_LINKS} links in use"
+                ));
             }
             self.waiting.insert(peer, (endpoint, name, sender, true));
             return false;
         };
         self.by_slot[slot] = Some(peer);
-        eprintln!("link up: {name}");
+        say(format!("link up: {name}"));
         self.links.insert(
             peer,
             Link {
@@ -414,6 +419,12 @@ enum Peers {
 
 fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
     state.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Says `line` on stderr through the process's printer, so that a stderr nobody reads never
+/// holds up routing.
+fn say(line: String) {
+    let _ = printer::stderr().line(line);
 }
 
 /// Creates an output file (`what`: "tlog", "statistics file"); the error names it by what it
@@ -512,7 +523,7 @@ fn reload(
         if keep {
             kept.push(o);
         } else {
-            eprintln!("reload: closing {}", o.config.endpoint);
+            say(format!("reload: closing {}", o.config.endpoint));
             lock(state).remove_endpoint(o.index);
         }
     }
@@ -520,10 +531,10 @@ fn reload(
     for e in new {
         match open_endpoint(state, e, options) {
             Ok(o) => {
-                eprintln!("reload: opened {}", e.endpoint);
+                say(format!("reload: opened {}", e.endpoint));
                 opened.push(o);
             }
-            Err(err) => eprintln!("reload: cannot open {}: {err}", e.endpoint),
+            Err(err) => say(format!("reload: cannot open {}: {err}", e.endpoint)),
         }
     }
 }
@@ -534,6 +545,9 @@ fn reload(
 pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> io::Result<()> {
     run_reloading(config, attached, stop, None)
 }
+
+/// How long a router about to exit waits for its last lines to be read.
+const FLUSH_PATIENCE: Duration = Duration::from_secs(2);
 
 /// The shortest time between two statistics tables.
 const MIN_STATS_EVERY: Duration = Duration::from_millis(100);
@@ -624,16 +638,14 @@ pub fn run_reloading(
         let status: link::Status = Arc::new(move || lock(&shared).status());
         guards.push((endpoint.open)(i, sink, status)?);
     }
-    {
-        let mut out = io::stdout().lock();
-        writeln!(
-            out,
-            "ready: routing {} endpoint(s), {} message(s) known",
-            count,
-            config.table.len()
-        )?;
-        out.flush()?;
-    }
+    // Standard output (the `ready` line and the tables) through a printer of its own: a
+    // terminal paused with Ctrl-S or a pipe nobody reads loses tables, never routing.
+    let out = Printer::stdout();
+    out.line(format!(
+        "ready: routing {} endpoint(s), {} message(s) known",
+        count,
+        config.table.len()
+    ))?;
     let has_tlog = lock(&state).tlog.is_some();
     let start = Instant::now();
     let deadline = config.run_for.map(|d| start + d);
@@ -650,10 +662,13 @@ pub fn run_reloading(
             if r.requested.swap(false, Ordering::Relaxed) {
                 match (r.endpoints)() {
                     Ok(endpoints) if endpoints.is_empty() && guards.is_empty() => {
-                        eprintln!("reload: kept the running endpoints: {}", no_endpoints());
+                        say(format!(
+                            "reload: kept the running endpoints: {}",
+                            no_endpoints()
+                        ));
                     }
                     Ok(endpoints) => reload(&state, &mut opened, &endpoints, options),
-                    Err(e) => eprintln!("reload: kept the running endpoints: {e}"),
+                    Err(e) => say(format!("reload: kept the running endpoints: {e}")),
                 }
             }
         }
@@ -706,7 +721,7 @@ pub fn run_reloading(
         if let (Some(every), Some(at)) = (config.stats_every, next_table) {
             if now >= at {
                 next_table = Some(at + every);
-                if let Err(e) = print_table(&s) {
+                if let Err(e) = out.line(table(&s)) {
                     next_table = None;
                     failed.get_or_insert(give_up("--stats", None, &e));
                 }
@@ -728,6 +743,10 @@ pub fn run_reloading(
     if let Some(e) = log_error.or_else(|| s.tlog.as_mut().and_then(|l| l.flush().err())) {
         failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
     }
+    drop(s);
+    // What is printed goes out, unless nobody reads it.
+    let _ = out.flush(FLUSH_PATIENCE);
+    let _ = printer::stderr().flush(FLUSH_PATIENCE);
     // An output given up makes the exit status say so, once everything else is done.
     failed.map_or(Ok(()), Err)
 }
@@ -737,7 +756,9 @@ pub fn run_reloading(
 /// said on stderr at once, since routing goes on without that output.
 fn give_up(what: &str, path: Option<&std::path::Path>, e: &io::Error) -> io::Error {
     let to = path.map_or_else(|| "stdout".to_owned(), |p| p.display().to_string());
-    eprintln!("{what} {to}: {e}; no more is written to it, routing goes on");
+    say(format!(
+        "{what} {to}: {e}; no more is written to it, routing goes on"
+    ));
     io::Error::new(
         e.kind(),
         format!("{what} {to}: {e} (given up while routing)"),
@@ -814,19 +835,22 @@ fn write_json(out: &mut impl Write, state: &State) -> io::Result<()> {
     out.flush()
 }
 
-fn print_table(state: &State) -> io::Result<()> {
+/// The statistics table, as `--stats` prints it.
+fn table(state: &State) -> String {
+    use std::fmt::Write as _;
+
     let (router, links) = (&state.router, &state.links);
-    let mut out = io::stdout().lock();
-    writeln!(
+    let mut out = String::new();
+    let _ = writeln!(
         out,
         "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
         "link", "rx", "tx", "crc", "dropped", "tx err", "tx drop"
-    )?;
+    );
     for l in sorted_links(links) {
         let Some(c) = router.link_counters(l.slot) else {
             continue;
         };
-        writeln!(
+        let _ = writeln!(
             out,
             "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
             l.name,
@@ -836,12 +860,12 @@ fn print_table(state: &State) -> io::Result<()> {
             c.drops.inbound(),
             l.tx_errors,
             l.sender.dropped()
-        )?;
+        );
     }
     let closed = &state.closed;
     if closed.links > 0 {
         let c = &closed.counters;
-        writeln!(
+        let _ = writeln!(
             out,
             "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
             format!(
@@ -855,22 +879,23 @@ fn print_table(state: &State) -> io::Result<()> {
             c.drops.inbound(),
             closed.tx_errors,
             closed.tx_dropped
-        )?;
+        );
     }
-    writeln!(
+    let _ = writeln!(
         out,
         "{:<12} {:>9} {:>9} {:>6}",
         "source", "rx", "tx", "lost"
-    )?;
+    );
     for s in router.sources() {
-        writeln!(
+        let _ = writeln!(
             out,
             "{:<12} {:>9} {:>9} {:>6}",
             format!("{}/{}", s.sysid, s.compid),
             s.rx_frames,
             s.tx_frames,
             s.lost
-        )?;
+        );
     }
-    out.flush()
+    out.truncate(out.trim_end().len());
+    out
 }

@@ -18,7 +18,8 @@ use std::fmt::{self, Write as _};
 use std::fs::File;
 use std::io::{self, BufRead, BufWriter, Write};
 use std::path::PathBuf;
-use std::sync::{mpsc, Arc};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{mpsc, Arc, Mutex, PoisonError};
 use std::thread;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -31,11 +32,18 @@ use serde_json::json;
 
 use super::Interface;
 use crate::link::{self, PeerId, Sender};
+use crate::printer::{self, Printer};
 
 /// The most interfaces (mirrors included) one bridge process serves.
 pub const MAX_INTERFACES: usize = 8;
 /// Bytes per output queue.
 pub const QUEUE_BYTES: usize = 16 * 1024;
+/// Bytes one peer may have waiting for the main loop. What a peer sends beyond that (a flood
+/// faster than the bridge forwards) is dropped and counted as its `rx_overruns`: memory stays
+/// bounded, and the flood costs that peer's data, not another's.
+pub const BACKLOG_BYTES: usize = 256 * 1024;
+/// How long a bridge about to exit waits for its last lines to be read.
+const FLUSH_PATIENCE: Duration = Duration::from_secs(2);
 
 type Node = Bridge<MAX_INTERFACES, { storage_len(ndlcom::MAX_PAYLOAD_LEN) }, QUEUE_BYTES>;
 
@@ -91,10 +99,19 @@ enum Event {
         peer: PeerId,
         name: String,
         sender: Sender,
+        backlog: Arc<Backlog>,
     },
-    Rx(PeerId, Vec<u8>),
+    Rx(PeerId, Vec<u8>, Arc<Backlog>),
     Down(PeerId, String),
     Command(String),
+}
+
+/// What one peer has waiting for the main loop.
+#[derive(Debug, Default)]
+struct Backlog {
+    bytes: AtomicUsize,
+    /// Reads dropped because [`BACKLOG_BYTES`] were waiting.
+    overruns: AtomicU64,
 }
 
 /// One interface of the bridge.
@@ -108,6 +125,10 @@ struct Slot {
     was_up: bool,
     /// Output that could not be written (no link, or the write failed).
     tx_errors: u64,
+    /// The backlog of the peer on it, for its overruns.
+    backlog: Option<Arc<Backlog>>,
+    /// The overruns of the peers on it before.
+    overruns_before: u64,
 }
 
 struct Program {
@@ -122,7 +143,9 @@ struct Program {
     missed_pairs: BTreeMap<(u8, u8), u64>,
     log: Option<BufWriter<File>>,
     start: Instant,
-    out: BufWriter<io::Stdout>,
+    /// Standard output, through a printer: a terminal paused with Ctrl-S or a pipe nobody
+    /// reads loses lines (and says how many), never forwarding.
+    out: Printer,
     ping_seq: u32,
     ping_sent: BTreeMap<u32, Instant>,
     replies: u64,
@@ -237,6 +260,8 @@ pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
                 sender: None,
                 was_up: false,
                 tx_errors: 0,
+                backlog: None,
+                overruns_before: 0,
             })
             .collect(),
         uris,
@@ -246,7 +271,15 @@ pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
         missed_pairs: BTreeMap::new(),
         log,
         start: Instant::now(),
-        out: BufWriter::new(io::stdout()),
+        out: Printer::new(
+            io::stdout(),
+            printer::LINES,
+            if config.json {
+                json_note
+            } else {
+                printer::text_note
+            },
+        ),
         ping_seq: 0,
         ping_sent: BTreeMap::new(),
         replies: 0,
@@ -262,10 +295,14 @@ pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
     result
 }
 
-/// A sink that hands the link layer's events to the main loop.
+/// A sink that hands the link layer's events to the main loop, each peer's reads up to
+/// [`BACKLOG_BYTES`] waiting.
 fn sink(tx: &mpsc::Sender<Event>) -> link::Sink {
     let tx = tx.clone();
+    let backlogs: Mutex<HashMap<PeerId, Arc<Backlog>>> = Mutex::default();
     Arc::new(move |event| {
+        let mut backlogs = backlogs.lock().unwrap_or_else(PoisonError::into_inner);
+        let mut backlog = |peer: PeerId| Arc::clone(backlogs.entry(peer).or_default());
         let event = match event {
             link::Event::Up {
                 endpoint,
@@ -277,9 +314,22 @@ fn sink(tx: &mpsc::Sender<Event>) -> link::Sink {
                 peer,
                 name,
                 sender,
+                backlog: backlog(peer),
             },
-            link::Event::Rx { peer, bytes, .. } => Event::Rx(peer, bytes.to_vec()),
-            link::Event::Down { peer, why } => Event::Down(peer, why),
+            link::Event::Rx { peer, bytes, .. } => {
+                let backlog = backlog(peer);
+                let waiting = backlog.bytes.fetch_add(bytes.len(), Ordering::Relaxed);
+                if waiting + bytes.len() > BACKLOG_BYTES {
+                    backlog.bytes.fetch_sub(bytes.len(), Ordering::Relaxed);
+                    backlog.overruns.fetch_add(1, Ordering::Relaxed);
+                    return true;
+                }
+                Event::Rx(peer, bytes.to_vec(), backlog)
+            }
+            link::Event::Down { peer, why } => {
+                backlogs.remove(&peer);
+                Event::Down(peer, why)
+            }
             // NDLCom resynchronises on its frame flag: a pause changes nothing.
             link::Event::Quiet { .. } => return true,
         };
@@ -330,7 +380,6 @@ impl Program {
                     next_stats = Some(at + every);
                 }
             }
-            self.out.flush()?;
         }
         // Let the last replies go out, then the final report.
         self.flush_outputs();
@@ -338,7 +387,11 @@ impl Program {
         if let Some(log) = &mut self.log {
             log.flush()?;
         }
-        self.out.flush()
+        // What is printed goes out, unless nobody reads it.
+        match self.out.flush(FLUSH_PATIENCE) {
+            Err(e) if e.kind() == io::ErrorKind::TimedOut => Ok(()),
+            flushed => flushed,
+        }
     }
 
     /// Handles one event; `false` ends the program.
@@ -349,11 +402,15 @@ impl Program {
                 peer,
                 name,
                 sender,
-            } => self.link_up(endpoint, peer, &name, sender)?,
-            Event::Rx(peer, bytes) => {
-                if let Some(&slot) = self.peers.get(&peer) {
-                    self.receive(slot, &bytes)?;
-                }
+                backlog,
+            } => self.link_up(endpoint, peer, &name, sender, backlog)?,
+            Event::Rx(peer, bytes, backlog) => {
+                let handled = match self.peers.get(&peer) {
+                    Some(&slot) => self.receive(slot, &bytes),
+                    None => Ok(()),
+                };
+                backlog.bytes.fetch_sub(bytes.len(), Ordering::Relaxed);
+                handled?;
             }
             Event::Down(peer, why) => {
                 if let Some(slot) = self.peers.remove(&peer) {
@@ -379,6 +436,7 @@ impl Program {
         peer: PeerId,
         name: &str,
         sender: Sender,
+        backlog: Arc<Backlog>,
     ) -> io::Result<()> {
         let uri = self.uris[endpoint].clone();
         let slot = if self.slots[endpoint].sender.is_none() {
@@ -400,6 +458,8 @@ impl Program {
                         sender: None,
                         was_up: false,
                         tx_errors: 0,
+                        backlog: None,
+                        overruns_before: 0,
                     });
                     self.slots.len() - 1
                 }
@@ -418,6 +478,9 @@ impl Program {
             .contains(&endpoint);
         self.node.router_mut().set_mirror(slot, mirror);
         self.slots[slot].sender = Some(sender);
+        let replaced = self.slots[slot].backlog.replace(backlog);
+        self.slots[slot].overruns_before +=
+            replaced.map_or(0, |b| b.overruns.load(Ordering::Relaxed));
         self.slots[slot].was_up = true;
         self.peers.insert(peer, slot);
         let name = self.slots[slot].name.clone();
@@ -573,11 +636,11 @@ impl Program {
     }
 
     fn report(&mut self, json: serde_json::Value, text: String) -> io::Result<()> {
-        if self.config.json {
-            writeln!(self.out, "{json}")
+        self.out.line(if self.config.json {
+            json.to_string()
         } else {
-            writeln!(self.out, "{text}")
-        }
+            text
+        })
     }
 
     fn print_everything(&mut self) -> io::Result<()> {
@@ -587,21 +650,34 @@ impl Program {
     }
 
     fn print_stats(&mut self) -> io::Result<()> {
-        let rows: Vec<(String, IfaceStats, u64)> = self
+        let rows: Vec<(String, IfaceStats, u64, u64)> = self
             .slots
             .iter()
             .enumerate()
-            .map(|(i, slot)| (slot.name.clone(), self.node.stats(i), slot.tx_errors))
+            .map(|(i, slot)| {
+                let overruns = slot.overruns_before
+                    + slot
+                        .backlog
+                        .as_ref()
+                        .map_or(0, |b| b.overruns.load(Ordering::Relaxed));
+                (
+                    slot.name.clone(),
+                    self.node.stats(i),
+                    slot.tx_errors,
+                    overruns,
+                )
+            })
             .collect();
         let json = json!({"event": "stats", "t_us": self.now_us(), "pings_sent": self.ping_seq, "pings_answered": self.replies,
-            "interfaces": rows.iter().map(|(name, s, e)| json!({
+            "interfaces": rows.iter().map(|(name, s, e, overruns)| json!({
                 "interface": name, "rx_frames": s.rx_frames, "rx_bytes": s.rx_bytes,
                 "tx_frames": s.tx_frames, "tx_bytes": s.tx_bytes, "crc_failures": s.crc_failures,
                 "dropped": s.dropped, "queue_overflows": s.queue_overflows,
                 "cut_through": s.cut_through, "timeouts": s.timeouts, "tx_errors": e,
+                "rx_overruns": overruns,
             })).collect::<Vec<_>>()});
         let mut text = format!(
-            "{:<36} {:>9} {:>11} {:>9} {:>11} {:>6} {:>7} {:>8}\n",
+            "{:<36} {:>9} {:>11} {:>9} {:>11} {:>6} {:>7} {:>8} {:>7}\n",
             "interface",
             "rx frames",
             "rx bytes",
@@ -609,12 +685,13 @@ impl Program {
             "tx bytes",
             "crc",
             "dropped",
-            "overflow"
+            "overflow",
+            "overrun"
         );
-        for (name, s, _) in &rows {
+        for (name, s, _, overruns) in &rows {
             let _ = writeln!(
                 text,
-                "{name:<36} {:>9} {:>11} {:>9} {:>11} {:>6} {:>7} {:>8}",
+                "{name:<36} {:>9} {:>11} {:>9} {:>11} {:>6} {:>7} {:>8} {overruns:>7}",
                 s.rx_frames,
                 s.rx_bytes,
                 s.tx_frames,
@@ -655,6 +732,11 @@ impl Program {
         }
         self.report(json, text)
     }
+}
+
+/// The note for `n` lines not printed, as a JSON line.
+fn json_note(n: u64) -> String {
+    json!({"event": "not_printed", "lines": n}).to_string()
 }
 
 /// MAVLink's PING (common.xml and minimal.xml, id 4), which the bridge answers and sends. Its

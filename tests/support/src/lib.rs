@@ -61,6 +61,21 @@ pub fn free_port() -> u16 {
     free_ports(1)
 }
 
+/// Shrinks the pipe behind `fd` (a child's piped stdout, say) to one page, so that a test fills
+/// it with a few kilobytes; `false` where the kernel cannot (not Linux).
+pub fn shrink_pipe(fd: impl std::os::fd::AsFd) -> bool {
+    #[cfg(target_os = "linux")]
+    {
+        use nix::fcntl::{fcntl, FcntlArg};
+        fcntl(fd, FcntlArg::F_SETPIPE_SZ(4096)).is_ok()
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = fd;
+        false
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
