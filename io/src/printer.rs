@@ -187,9 +187,15 @@ fn print(out: impl Write, rx: &Receiver<Item>, failed: &Mutex<Option<io::Error>>
 /// The process's printer for log lines on standard error (links up and down, refusals), for
 /// code that holds a lock others forward under.
 pub fn stderr() -> &'static Printer {
-    static STDERR: OnceLock<Printer> = OnceLock::new();
     STDERR.get_or_init(|| Printer::new(io::stderr(), LINES, text_note))
 }
+
+/// [`Printer::flush`] of the [`stderr`] printer, if anything was printed through it.
+pub fn flush_stderr(patience: Duration) -> io::Result<()> {
+    STDERR.get().map_or(Ok(()), |p| p.flush(patience))
+}
+
+static STDERR: OnceLock<Printer> = OnceLock::new();
 
 #[cfg(test)]
 mod tests {

@@ -746,7 +746,7 @@ pub fn run_reloading(
     drop(s);
     // What is printed goes out, unless nobody reads it.
     let _ = out.flush(FLUSH_PATIENCE);
-    let _ = printer::stderr().flush(FLUSH_PATIENCE);
+    let _ = printer::flush_stderr(FLUSH_PATIENCE);
     // An output given up makes the exit status say so, once everything else is done.
     failed.map_or(Ok(()), Err)
 }

@@ -351,11 +351,21 @@ impl Program {
             if deadline.is_some_and(|d| now >= d) {
                 break;
             }
-            let mut wake = now + Duration::from_millis(5);
-            for t in [next_stats, next_ping, deadline].into_iter().flatten() {
-                wake = wake.min(t);
-            }
-            match rx.recv_timeout(wake.saturating_duration_since(now)) {
+            // It wakes for input, and for a timer only when one is due: the statistics, a
+            // ping, the end, or a cut-through frame that may have stalled.
+            let stalls = self
+                .node
+                .next_poll_us()
+                .map(|us| self.start + Duration::from_micros(us));
+            let wake = [next_stats, next_ping, deadline, stalls]
+                .into_iter()
+                .flatten()
+                .min();
+            let received = match wake {
+                Some(wake) => rx.recv_timeout(wake.saturating_duration_since(now)),
+                None => rx.recv().map_err(|_| mpsc::RecvTimeoutError::Disconnected),
+            };
+            match received {
                 Ok(event) => {
                     if !self.event(event)? {
                         break;
@@ -388,6 +398,7 @@ impl Program {
             log.flush()?;
         }
         // What is printed goes out, unless nobody reads it.
+        let _ = printer::flush_stderr(FLUSH_PATIENCE);
         match self.out.flush(FLUSH_PATIENCE) {
             Err(e) if e.kind() == io::ErrorKind::TimedOut => Ok(()),
             flushed => flushed,

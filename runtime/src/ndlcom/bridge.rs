@@ -405,6 +405,23 @@ impl<const N: usize, const P: usize, const Q: usize, const A: usize> Bridge<N, P
         n
     }
 
+    /// When [`poll`](Self::poll) next has something to do: the time a cut-through frame in
+    /// flight would have stalled longer than the byte timeout, the earliest of them; `None`
+    /// while none is in flight, so that a program driving the bridge can sleep until it has
+    /// input.
+    pub fn next_poll_us(&self) -> Option<u64> {
+        self.inputs
+            .iter()
+            .filter(|input| !input.streams.is_empty())
+            .map(|input| {
+                input
+                    .last_us
+                    .saturating_add(self.timeout_us)
+                    .saturating_add(1)
+            })
+            .min()
+    }
+
     /// Cuts off cut-through frames that stalled longer than the byte timeout.
     pub fn poll(&mut self, now_us: u64) {
         for i in 0..N {
@@ -706,14 +723,18 @@ mod tests {
         b.set_byte_timeout_us(100);
         b.router_mut().seed(7, 1);
         let f = frame(7, 9, 0, &[1, 2, 3, 4]);
+        assert_eq!(b.next_poll_us(), None);
         b.receive(0, &f[..5], 0, |_| {});
+        assert_eq!(b.next_poll_us(), Some(101));
         // Meanwhile a frame from interface 2 must wait: it is queued store & forward.
         let g = frame(7, 8, 0, &[5]);
         b.receive(2, &g, 50, |_| {});
+        assert_eq!(b.next_poll_us(), Some(101));
         b.poll(100);
         assert_eq!(drain(&mut b, 1), f[..5]);
         b.poll(101);
         assert_eq!(b.stats(0).timeouts, 1);
+        assert_eq!(b.next_poll_us(), None);
         assert_eq!(drain(&mut b, 1), [&[FLAG][..], &g].concat());
         // The rest of the stalled frame is not forwarded.
         b.receive(0, &f[5..], 300, |_| {});
