@@ -278,6 +278,7 @@ fn an_idle_bridge_sleeps() {
     let Some(before) = runs() else {
         eprintln!("note: no /proc schedstat here; the wake-up count is not checked");
         let _ = x.kill();
+        let _ = x.wait();
         return;
     };
     sleep(Duration::from_secs(1));
