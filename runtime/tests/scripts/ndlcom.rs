@@ -10,7 +10,9 @@
 //! an interface) or a configuration change (mode of a pair, mirror, pinned route, link down).
 //! Checked: no panic; every byte received is counted in the interface's `rx_bytes`; `transmit`
 //! never hands out more than `pending` said, and every byte it hands out is counted; frames
-//! delivered locally are intact and addressed to an own id or the broadcast address.
+//! delivered locally are intact and addressed to an own id or the broadcast address; a poll
+//! before `next_poll_us` (or while it is `None`) cuts nothing off, and after a poll nothing is
+//! left due.
 
 use ferrolink_runtime::crc::mcrf4xx;
 use ferrolink_runtime::ndlcom::bridge::{Bridge, Mode};
@@ -96,7 +98,20 @@ pub fn check_bridge(data: &[u8]) {
             }
             4 => {
                 now += u64::from(op & 0x1f) * 10;
+                let due = bridge.next_poll_us();
+                let timeouts = |b: &Bridge<3, { storage_len(64) }, 300>| {
+                    (0..3).map(|k| b.stats(k).timeouts).sum::<u64>()
+                };
+                let before = timeouts(&bridge);
                 bridge.poll(now);
+                if due.is_none_or(|t| now < t) {
+                    assert_eq!(
+                        timeouts(&bridge),
+                        before,
+                        "a poll before it was due cut off"
+                    );
+                }
+                assert!(bridge.next_poll_us().is_none_or(|t| t > now));
             }
             5 | 6 => {
                 let pending = bridge.pending(i);
