@@ -18,6 +18,7 @@ use clap::{Parser, Subcommand};
 use ferrolink_generated::tosnet::minivgt::{
     Master, MotorState, MotorTarget, Section1, Section2, Section3,
 };
+use ferrolink_io::printer::{self, Printer};
 use ferrolink_io::tosnet::UdpNode;
 use ferrolink_runtime::tosnet::{Block, Config, Counters, Node, NodeId, Phase, Status};
 
@@ -123,10 +124,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             run_node(udp, control, sweep, &stop, &shared)
         }));
     }
-    println!(
+    // Printed by a thread of its own: a terminal paused with Ctrl-S loses lines, never cycles
+    // (the nodes share the lock the report is made under).
+    let out = Printer::stdout();
+    out.line(format!(
         "MiniVGT: node(s) {local:?} on UDP ports {}.., targets on port {}",
         cli.base_port, cli.control_port
-    );
+    ))?;
     let start = Instant::now();
     let mut last = (Instant::now(), 0u32);
     loop {
@@ -134,16 +138,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let done = cli
             .run_for
             .is_some_and(|s| start.elapsed().as_secs_f64() >= s);
-        let shared = shared.lock().map_err(|_| "a node thread panicked")?;
-        let cycles = shared
-            .nodes
-            .iter()
-            .map(|(_, _, c)| c.cycles)
-            .max()
-            .unwrap_or(0);
-        let rate = f64::from(cycles.wrapping_sub(last.1)) / last.0.elapsed().as_secs_f64();
-        last = (Instant::now(), cycles);
-        println!("{}", report(&shared, rate, done));
+        let line = {
+            let shared = shared.lock().map_err(|_| "a node thread panicked")?;
+            let cycles = shared
+                .nodes
+                .iter()
+                .map(|(_, _, c)| c.cycles)
+                .max()
+                .unwrap_or(0);
+            let rate = f64::from(cycles.wrapping_sub(last.1)) / last.0.elapsed().as_secs_f64();
+            last = (Instant::now(), cycles);
+            report(&shared, rate, done)
+        };
+        out.line(line)?;
         if done {
             break;
         }
@@ -152,6 +159,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for t in threads {
         t.join().map_err(|_| "a node thread panicked")??;
     }
+    // What is printed goes out, unless nobody reads it.
+    let _ = out.flush(Duration::from_secs(2));
+    let _ = printer::flush_stderr(Duration::from_secs(2));
     Ok(())
 }
 
@@ -264,10 +274,11 @@ fn read_targets(control: &UdpSocket, targets: &mut [[Option<MotorTarget>; 3]; 3]
             Some(())
         })();
         if parsed.is_none() {
-            eprintln!(
+            // Through the printer: the master's cycle must not wait on stderr.
+            let _ = printer::stderr().line(format!(
                 "ignored target `{}` (want: SECTION MOTOR POSITION [SPEED])",
                 text.trim()
-            );
+            ));
         }
     }
 }
