@@ -5,6 +5,7 @@ use std::process::{Child, Command, Stdio};
 use std::thread::sleep;
 use std::time::Duration;
 
+use ferrolink_io::ndlcom::bridge::MAX_INTERFACES;
 use ferrolink_test_support::free_port;
 use serde_json::Value;
 
@@ -289,6 +290,51 @@ fn an_idle_bridge_sleeps() {
         woke <= 5,
         "the idle bridge's main thread ran {woke} times in 1 s"
     );
+}
+
+/// A TCP client past the bridge's interfaces is closed at once, so that clients that keep
+/// connecting cannot pile up threads and sockets in it. Before, each kept a thread and three
+/// file descriptors for as long as it stayed connected.
+#[test]
+fn a_tcp_client_past_the_interfaces_is_closed() {
+    use std::io::Read;
+
+    let port = free_port();
+    let x = bridge(&[
+        s("-u"),
+        format!("tcp-listen://127.0.0.1:{port}"),
+        s("--run-for"),
+        s(3.0),
+    ]);
+    sleep(Duration::from_millis(300));
+    // One after the other, so that the last ones are those refused.
+    let extra = 4;
+    let clients: Vec<std::net::TcpStream> = (0..MAX_INTERFACES + extra)
+        .map(|_| {
+            let c = std::net::TcpStream::connect(("127.0.0.1", port)).expect("connects");
+            sleep(Duration::from_millis(20));
+            c
+        })
+        .collect();
+    let ended = |mut c: &std::net::TcpStream, wait: u64| {
+        c.set_read_timeout(Some(Duration::from_millis(wait)))
+            .expect("timeout");
+        // End of stream, or a reset: closed. A timeout: still open.
+        match c.read(&mut [0u8; 16]) {
+            Ok(0) => true,
+            Err(e) => e.kind() == std::io::ErrorKind::ConnectionReset,
+            Ok(_) => false,
+        }
+    };
+    for c in &clients[MAX_INTERFACES..] {
+        assert!(ended(c, 1000), "a refused client was left open");
+    }
+    for c in &clients[..MAX_INTERFACES] {
+        assert!(!ended(c, 10), "a client with an interface was closed");
+    }
+    let x = events(x);
+    let refused = x.iter().filter(|e| e["event"] == "link_refused").count();
+    assert_eq!(refused, extra, "{x:?}");
 }
 
 #[test]

@@ -475,10 +475,15 @@ impl Program {
                     self.slots.len() - 1
                 }
                 None => {
+                    // Closed at once (a TCP client), so that it keeps no thread or socket here.
+                    sender.close();
                     self.report(
                         json!({"event": "link_refused", "interface": name,
                                "error": format!("all {MAX_INTERFACES} interfaces are in use")}),
-                        format!("link refused: {name}: all {MAX_INTERFACES} interfaces are in use"),
+                        format!(
+                            "link refused and closed: {name}: all {MAX_INTERFACES} interfaces \
+                             are in use"
+                        ),
                     )?;
                     return Ok(());
                 }
