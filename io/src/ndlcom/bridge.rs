@@ -7,11 +7,11 @@
 //! Interface `i` is the `i`-th URI given (mirrors after the interfaces). A `tcp-listen://`
 //! interface serves any number of clients: its first client is interface `i`, every further one
 //! an interface of its own (numbered after the URIs, named `URI <- ADDRESS`, with the URI's mirror
-//! setting), as long as [`MAX_INTERFACES`] allows; a client leaving frees its interface and the
-//! routes learned through it. Serial devices that fail or are unplugged are reopened every
-//! second, and TCP clients reconnect; a link coming and going is reported (`link_up`,
-//! `link_down`). `ferrolink ndlcom bridge` and `ferrolink ndlcom log` are
-//! thin wrappers around [`run`].
+//! setting), as long as [`MAX_INTERFACES`] allows (a client past that is closed at once); a
+//! client leaving frees its interface and the routes learned through it. Serial devices that
+//! fail or are unplugged are reopened every second, and TCP clients reconnect; a link coming and
+//! going is reported (`link_up`, `link_down`). `ferrolink ndlcom bridge` and
+//! `ferrolink ndlcom log` are thin wrappers around [`run`].
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::{self, Write as _};
