@@ -746,6 +746,7 @@ async def check_lossy_mission(args):
     MissionRawServer appends repeated items, so the relay towards it does not repeat.
     """
     from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync, MissionItem
+    from mavsdk.plugins.mission_raw.mission_raw import MissionRawError, MissionRawResult
     notes = []
     spec = mission_spec(100)
     port = free_port()
@@ -760,7 +761,17 @@ async def check_lossy_mission(args):
                                  mission_type=0)
                      for (s, f, c, cur, ac, p1, p2, p3, p4, x, y, z) in spec]
             t0 = time.monotonic()
-            await mission.upload_mission(items)  # our vehicle drives: 20 %
+            try:
+                await mission.upload_mission(items)  # our vehicle drives: 20 %
+            except MissionRawError as e:
+                # MAVSDK gives a whole upload up when it waits too long for the next request
+                # (several lost in a row, or a machine busy with the other tests); a user
+                # uploads again. Once, and said in the notes.
+                if e.result != MissionRawResult.TIMEOUT:
+                    raise
+                notes.append("MAVSDK's upload timed out once and was repeated")
+                t0 = time.monotonic()
+                await mission.upload_mission(items)
             t1 = time.monotonic()
             relay.loss = 0.05  # MAVSDK drives the download
             down = await mission.download_mission()
