@@ -178,6 +178,72 @@ fn a_bridge_whose_stdout_is_not_read_forwards_on() {
     );
 }
 
+/// A bridge whose `--log` nobody reads (a FIFO into a program that stopped, a disk that
+/// stalls) goes on answering pings, and the log gets every line once it is read. Before, its
+/// one loop wrote the log: once the pipe was full, nothing was forwarded or answered.
+#[test]
+fn a_bridge_whose_log_is_not_read_forwards_on() {
+    let dir = tempfile::tempdir().expect("scratch");
+    let log = dir.path().join("frames.jsonl");
+    let Some(mut reader) = ferrolink_test_support::unread_fifo(&log) else {
+        eprintln!("note: no FIFOs with one-page pipes here; an unread log is not tried");
+        return;
+    };
+    let (xy, yx) = (free_port(), free_port());
+    let x = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{xy}:{yx}"),
+        s("-i"),
+        s(1),
+        s("--log"),
+        log.display().to_string(),
+        s("--run-for"),
+        s(3.5),
+    ]);
+    sleep(Duration::from_millis(300));
+    // A hundred pings a second, each logged: a page of pipe fills at once.
+    let y = bridge(&[
+        s("-u"),
+        format!("udp://127.0.0.1:{yx}:{xy}"),
+        s("-i"),
+        s(2),
+        s("--ping"),
+        s(1),
+        s("--ping-every"),
+        s(0.01),
+        s("--run-for"),
+        s(2.5),
+    ]);
+    let y = events(y);
+    let pings = last(&y, "stats")["pings_sent"].as_u64().expect("pings");
+    let answered = last(&y, "stats")["pings_answered"]
+        .as_u64()
+        .expect("answered");
+    assert!(pings >= 100, "{pings} pings");
+    assert!(
+        answered * 10 >= pings * 9,
+        "{answered} of {pings} pings answered"
+    );
+    // Now the log is read, and gets what waited for it.
+    let reading = std::thread::spawn(move || ferrolink_test_support::read_to_close(&mut reader));
+    let out = x.wait_with_output().expect("finishes");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(reading.join().expect("read")).expect("utf-8");
+    let frames = text
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).expect("a JSON line"))
+        .filter(|v| v.get("frame").is_some())
+        .count() as u64;
+    assert!(
+        frames >= answered,
+        "{frames} frames logged, {answered} answered"
+    );
+}
+
 /// A peer that floods the bridge faster than it forwards costs bounded memory: what it sends
 /// beyond [`BACKLOG_BYTES`] waiting is dropped and counted as its `rx_overruns`, and pings on
 /// another interface are still answered. Before, every datagram waited in an unbounded queue:

@@ -1,17 +1,18 @@
 //! `ferrolink mavlink router` takes signals as daemons do: SIGHUP reloads the endpoints of the
 //! configuration file and keeps the router running; without a file it is logged and ignored;
 //! under `nohup` (SIGHUP ignored from the start) it stays ignored; SIGTERM stops the router with
-//! status 0. A standard output nobody reads holds none of it up.
+//! status 0. A standard output, a tlog or a statistics file nobody reads holds none of it up.
 //!
 //! Before, SIGHUP ended the router even under `nohup`, so a router started from an SSH session
 //! died with the session.
 
 mod common;
 
-use std::io::Read;
+use std::io::{BufRead, BufReader, Read};
 use std::net::UdpSocket;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
 use std::thread;
 use std::time::{Duration, Instant};
 
@@ -52,17 +53,7 @@ fn signal(child: &Child, name: &str) {
 /// Stops the router with SIGTERM and returns its stderr; it must exit with status 0.
 fn stop(mut child: Child) -> String {
     signal(&child, "TERM");
-    let deadline = Instant::now() + Duration::from_secs(5);
-    let status = loop {
-        if let Some(status) = child.try_wait().expect("wait") {
-            break status;
-        }
-        assert!(
-            Instant::now() < deadline,
-            "the router did not stop on SIGTERM"
-        );
-        thread::sleep(Duration::from_millis(20));
-    };
+    let status = exit(&mut child);
     let mut err = String::new();
     child
         .stderr
@@ -302,6 +293,143 @@ fn a_router_whose_stdout_is_not_read_routes_on_and_stops_on_sigterm() {
     thread::sleep(Duration::from_secs(2));
     assert!(routes(a, b), "A to B with stdout full");
     stop(router);
+}
+
+/// A router whose tlog and statistics file nobody reads (FIFOs into a program that stopped,
+/// or a disk that stalls) goes on routing and stops on SIGTERM; it says how many tlog records
+/// it could not write, and those written and those lost add up. Before, it wrote both while
+/// holding the routing lock: once the pipe was full, nothing was routed.
+#[test]
+fn a_router_whose_tlog_and_statistics_file_are_not_read_routes_on() {
+    let dir = tempfile::tempdir().expect("scratch");
+    let (tlog, stats) = (dir.path().join("flight.tlog"), dir.path().join("stats"));
+    let (Some(mut tlog_reader), Some(mut stats_reader)) = (
+        ferrolink_test_support::unread_fifo(&tlog),
+        ferrolink_test_support::unread_fifo(&stats),
+    ) else {
+        eprintln!("note: no FIFOs with one-page pipes here; an unread tlog is not tried");
+        return;
+    };
+    let (a, b) = (free_port(), free_port());
+    let mut router = start(
+        "",
+        &[
+            format!("udpin://127.0.0.1:{a}"),
+            format!("udpin://127.0.0.1:{b}"),
+            "--tlog".into(),
+            tlog.display().to_string(),
+            "--stats-json".into(),
+            stats.display().to_string(),
+            // Should the test fail, the router does not outlive it for long.
+            "--run-for".into(),
+            "120".into(),
+        ],
+    );
+    let stderr = router.stderr.take().expect("stderr");
+    let (noted, note) = mpsc::channel();
+    let stderr = thread::spawn(move || {
+        let mut all = String::new();
+        for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+            if line.contains("record(s) not written") {
+                let _ = noted.send(());
+            }
+            all += &line;
+            all.push('\n');
+        }
+        all
+    });
+    assert!(routes(a, b), "A to B at first");
+    // Datagrams of 80 heartbeats, until the router says it lost tlog records: past the 4 MiB
+    // it holds for its tlog.
+    let one = heartbeat(7);
+    let datagram: Vec<u8> = one.repeat(80);
+    let talker = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while note.try_recv().is_err() {
+        assert!(Instant::now() < deadline, "no tlog record was lost");
+        for _ in 0..20 {
+            let _ = talker.send_to(&datagram, ("127.0.0.1", a));
+        }
+        thread::sleep(Duration::from_millis(2));
+    }
+    // What the flood left queued in the router's socket goes first.
+    drain(b);
+    assert!(
+        routes(a, b),
+        "A to B with the tlog and the statistics file stalled"
+    );
+
+    // Read what was written, then stop the router.
+    let tlog_reading =
+        thread::spawn(move || ferrolink_test_support::read_to_close(&mut tlog_reader));
+    let stats_reading =
+        thread::spawn(move || ferrolink_test_support::read_to_close(&mut stats_reader));
+    signal(&router, "TERM");
+    let status = exit(&mut router);
+    let err = stderr.join().expect("stderr read");
+    let written = tlog_reading.join().expect("tlog read");
+    let stats = String::from_utf8(stats_reading.join().expect("stats read")).expect("utf-8");
+    assert_eq!(
+        status.code(),
+        Some(1),
+        "the lost records make the status 1: {err}"
+    );
+    let line = err
+        .lines()
+        .find(|l| l.contains("record(s) not written: the file did not keep up"))
+        .unwrap_or_else(|| panic!("no count of the lost records: {err}"));
+    let counts: Vec<u64> = line
+        .split_whitespace()
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    let [dropped, records] = counts[..] else {
+        panic!("{line}")
+    };
+    assert!(dropped > 0, "{line}");
+    // Every record is a heartbeat of the same length; the file holds whole records only.
+    let record = 8 + one.len();
+    assert_eq!(written.len() % record, 0, "a record was cut");
+    assert_eq!(
+        written.len() / record + dropped as usize,
+        records as usize,
+        "{line}"
+    );
+    let last: serde_json::Value =
+        serde_json::from_str(stats.lines().last().expect("a line")).expect("JSON");
+    assert_eq!(last["tlog_records"], records, "{stats}");
+    assert_eq!(last["tlog_dropped"], dropped, "{stats}");
+}
+
+/// Listens as a peer of `port` until nothing has come for 300 ms (at most 30 s).
+fn drain(port: u16) {
+    let listener = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    listener
+        .set_read_timeout(Some(Duration::from_millis(300)))
+        .expect("timeout");
+    let _ = listener.send_to(&heartbeat(254), ("127.0.0.1", port));
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut buf = [0u8; 2048];
+    while listener.recv(&mut buf).is_ok() {
+        assert!(
+            Instant::now() < deadline,
+            "the router's backlog never drained"
+        );
+    }
+}
+
+/// Waits up to 5 s for the router to exit.
+fn exit(child: &mut Child) -> std::process::ExitStatus {
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        if let Some(status) = child.try_wait().expect("wait") {
+            return status;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "the router did not stop on SIGTERM"
+        );
+        thread::sleep(Duration::from_millis(20));
+    }
 }
 
 /// A `zenoh://` endpoint of the file is opened once, at start: a reload that leaves it as it

@@ -1,10 +1,13 @@
-//! Lines for standard output or standard error that never hold up the program printing them.
+//! Outputs that never hold up the program writing them: standard output and error, statistics
+//! files, logs.
 //!
-//! A router or bridge that prints while it forwards must go on forwarding when nobody reads what
-//! it prints: a terminal paused with Ctrl-S, a pager left open, a pipe into a program that
-//! stopped. A [`Printer`] hands each line to a thread of its own through a bounded queue. When
-//! the queue is full the line is dropped and counted, and a note says how many were dropped
-//! before the next line that gets through. Memory stays bounded, and the caller never waits.
+//! A router or bridge that prints or logs while it forwards must go on forwarding when nobody
+//! reads what it writes: a terminal paused with Ctrl-S, a pager left open, a pipe or FIFO into a
+//! program that stopped, a disk (an SD card) that stalls. A [`Printer`] hands each line, or each
+//! chunk of a binary log, to a thread of its own through a bounded queue. When the queue is full
+//! the line is dropped and counted, and a note says how many were dropped before the next line
+//! that gets through (a binary output has no room for notes: its writer counts what it lost).
+//! Memory stays bounded, and the caller never waits.
 
 use std::io::{self, Write};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -16,8 +19,12 @@ use std::time::{Duration, Instant};
 /// Lines a printer holds for an output that is not read before it drops them.
 pub const LINES: usize = 1024;
 
+/// How long a program at its end waits for its outputs to take what is queued for them.
+pub const FLUSH_PATIENCE: Duration = Duration::from_secs(2);
+
 enum Item {
-    Line(String),
+    /// A line with its newline, or a chunk of a binary output.
+    Bytes(Vec<u8>),
     /// Answered once every line before it is written and flushed.
     Flush(mpsc::Sender<()>),
 }
@@ -27,8 +34,8 @@ pub struct Printer {
     tx: SyncSender<Item>,
     /// Lines dropped since the last note.
     unprinted: AtomicU64,
-    /// The note for `n` lines dropped.
-    note: fn(u64) -> String,
+    /// The note for `n` lines dropped (`None` for a binary output).
+    note: Option<fn(u64) -> String>,
     /// What ended the printing thread (a closed pipe, say).
     failed: Arc<Mutex<Option<io::Error>>>,
 }
@@ -46,11 +53,30 @@ pub fn text_note(n: u64) -> String {
     format!("note: {n} line(s) not printed: the output was not read")
 }
 
+/// The note for `n` lines dropped, as a JSON line.
+pub fn json_note(n: u64) -> String {
+    format!("{{\"event\":\"not_printed\",\"lines\":{n}}}")
+}
+
 impl Printer {
     /// A printer to `out` that holds up to `lines` lines while `out` is not read; `note` words
     /// the note for lines dropped.
     pub fn new(out: impl Write + Send + 'static, lines: usize, note: fn(u64) -> String) -> Printer {
-        let (tx, rx) = mpsc::sync_channel(lines.max(1));
+        Printer::spawn(out, lines, Some(note))
+    }
+
+    /// A printer of binary chunks ([`chunk`](Self::chunk)) to `out`, holding up to `chunks`
+    /// of them while `out` is not read.
+    pub fn binary(out: impl Write + Send + 'static, chunks: usize) -> Printer {
+        Printer::spawn(out, chunks, None)
+    }
+
+    fn spawn(
+        out: impl Write + Send + 'static,
+        items: usize,
+        note: Option<fn(u64) -> String>,
+    ) -> Printer {
+        let (tx, rx) = mpsc::sync_channel(items.max(1));
         let failed = Arc::new(Mutex::new(None));
         let thread_failed = Arc::clone(&failed);
         let spawned = thread::Builder::new()
@@ -76,21 +102,34 @@ impl Printer {
     /// Queues `line` (a newline is added); drops it if the queue is full. An error says the
     /// output failed (a closed pipe): nothing more is printed.
     pub fn line(&self, line: impl Into<String>) -> io::Result<()> {
-        if self.has_failed() {
-            return Err(self.error());
+        if let Some(e) = self.failure() {
+            return Err(e);
         }
         let unprinted = self.unprinted.load(Ordering::Relaxed);
-        if unprinted > 0 {
-            if !self.offer((self.note)(unprinted))? {
+        if let Some(note) = self.note.filter(|_| unprinted > 0) {
+            if !self.offer(with_newline(note(unprinted)))? {
                 self.unprinted.fetch_add(1, Ordering::Relaxed);
                 return Ok(());
             }
             self.unprinted.fetch_sub(unprinted, Ordering::Relaxed);
         }
-        if !self.offer(line.into())? {
+        if !self.offer(with_newline(line.into()))? {
             self.unprinted.fetch_add(1, Ordering::Relaxed);
         }
         Ok(())
+    }
+
+    /// Queues `bytes` as they are (a chunk of a binary output); `false` if it was dropped, the
+    /// queue being full. An error says the output failed: nothing more is written.
+    pub fn chunk(&self, bytes: Vec<u8>) -> io::Result<bool> {
+        if let Some(e) = self.failure() {
+            return Err(e);
+        }
+        let queued = self.offer(bytes)?;
+        if !queued {
+            self.unprinted.fetch_add(1, Ordering::Relaxed);
+        }
+        Ok(queued)
     }
 
     /// Lines dropped and not yet noted.
@@ -101,7 +140,12 @@ impl Printer {
     /// Waits, up to `patience`, until every line queued so far is written and flushed. An
     /// error says the output failed, or was not read for that long.
     pub fn flush(&self, patience: Duration) -> io::Result<()> {
-        let deadline = Instant::now() + patience;
+        self.flush_until(Instant::now() + patience)
+    }
+
+    /// Waits, up to `deadline`, until everything queued so far is written and flushed. An error
+    /// says the output failed, or was not read by then.
+    pub fn flush_until(&self, deadline: Instant) -> io::Result<()> {
         let (ack, acked) = mpsc::channel();
         let mut item = Item::Flush(ack);
         loop {
@@ -111,50 +155,53 @@ impl Printer {
                     item = back;
                     thread::sleep(Duration::from_millis(10));
                 }
-                Err(TrySendError::Full(_)) => return Err(self.stalled(patience)),
+                Err(TrySendError::Full(_)) => return Err(stalled()),
                 Err(TrySendError::Disconnected(_)) => return Err(self.error()),
             }
         }
         match acked.recv_timeout(deadline.saturating_duration_since(Instant::now())) {
             Ok(()) => Ok(()),
-            Err(mpsc::RecvTimeoutError::Timeout) => Err(self.stalled(patience)),
+            Err(mpsc::RecvTimeoutError::Timeout) => Err(stalled()),
             Err(mpsc::RecvTimeoutError::Disconnected) => Err(self.error()),
         }
     }
 
-    /// Queues `line` if there is room; `false` if not.
-    fn offer(&self, line: String) -> io::Result<bool> {
-        match self.tx.try_send(Item::Line(line)) {
+    /// Queues `bytes` if there is room; `false` if not.
+    fn offer(&self, bytes: Vec<u8>) -> io::Result<bool> {
+        match self.tx.try_send(Item::Bytes(bytes)) {
             Ok(()) => Ok(true),
             Err(TrySendError::Full(_)) => Ok(false),
             Err(TrySendError::Disconnected(_)) => Err(self.error()),
         }
     }
 
-    fn stalled(&self, patience: Duration) -> io::Error {
-        io::Error::new(
-            io::ErrorKind::TimedOut,
-            format!(
-                "the output was not read for {} s; the last lines were not printed",
-                patience.as_secs_f64()
-            ),
-        )
-    }
-
-    fn has_failed(&self) -> bool {
+    /// What ended the printing thread, if it has ended (a closed pipe, a full disk).
+    pub fn failure(&self) -> Option<io::Error> {
         self.failed
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
-            .is_some()
+            .as_ref()
+            .map(|e| io::Error::new(e.kind(), e.to_string()))
     }
 
     /// What ended the printing thread.
     fn error(&self) -> io::Error {
-        match &*self.failed.lock().unwrap_or_else(PoisonError::into_inner) {
-            Some(e) => io::Error::new(e.kind(), e.to_string()),
-            None => io::Error::new(io::ErrorKind::BrokenPipe, "the output was closed"),
-        }
+        self.failure()
+            .unwrap_or_else(|| io::Error::new(io::ErrorKind::BrokenPipe, "the output was closed"))
     }
+}
+
+fn with_newline(line: String) -> Vec<u8> {
+    let mut bytes = line.into_bytes();
+    bytes.push(b'\n');
+    bytes
+}
+
+fn stalled() -> io::Error {
+    io::Error::new(
+        io::ErrorKind::TimedOut,
+        "the output was not read in time; what was queued last was not written",
+    )
 }
 
 /// The printing thread: writes what is queued, flushing whenever the queue is empty, until
@@ -167,7 +214,7 @@ fn print(out: impl Write, rx: &Receiver<Item>, failed: &Mutex<Option<io::Error>>
         let mut next = Some(first);
         while let Some(item) = next {
             let written = match &item {
-                Item::Line(line) => writeln!(out, "{line}"),
+                Item::Bytes(bytes) => out.write_all(bytes),
                 Item::Flush(_) => out.flush(),
             };
             if let Err(e) = written {

@@ -160,8 +160,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         t.join().map_err(|_| "a node thread panicked")??;
     }
     // What is printed goes out, unless nobody reads it.
-    let _ = out.flush(Duration::from_secs(2));
-    let _ = printer::flush_stderr(Duration::from_secs(2));
+    let _ = out.flush(printer::FLUSH_PATIENCE);
+    let _ = printer::flush_stderr(printer::FLUSH_PATIENCE);
     Ok(())
 }
 

@@ -16,7 +16,7 @@
 
 use std::collections::HashMap;
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
@@ -112,8 +112,8 @@ struct State {
     /// Datagrams from peers on probation that held no checked frame.
     junk_datagrams: u64,
     by_slot: Vec<Option<PeerId>>,
-    tlog: Option<tlog::Writer<BufWriter<File>>>,
-    tlog_error: Option<io::Error>,
+    /// The `--tlog`, written by a thread of its own.
+    tlog: Option<tlog::Spool>,
     refused: u64,
     /// The totals of links that closed, so that no count is lost with its link.
     closed: Closed,
@@ -175,17 +175,13 @@ impl State {
             links,
             by_slot,
             tlog,
-            tlog_error,
             ..
         } = self;
         let mut checked = false;
         let on_frame = |routed: Routed<'_>| {
             checked |= routed.frame.is_checked();
-            // After a write error, nothing more: a record half written stays the last.
-            if let (Some(log), None) = (tlog.as_mut(), tlog_error.as_ref()) {
-                if let Err(e) = log.write(rx_us, routed.bytes) {
-                    *tlog_error = Some(e);
-                }
+            if let Some(log) = tlog.as_mut() {
+                log.write(rx_us, routed.bytes);
             }
             let mut to = routed.to;
             while to != 0 {
@@ -546,9 +542,6 @@ pub fn run(config: &Config, attached: Vec<Attached>, stop: &Arc<AtomicBool>) -> 
     run_reloading(config, attached, stop, None)
 }
 
-/// How long a router about to exit waits for its last lines to be read.
-const FLUSH_PATIENCE: Duration = Duration::from_secs(2);
-
 /// The shortest time between two statistics tables.
 const MIN_STATS_EVERY: Duration = Duration::from_millis(100);
 
@@ -599,12 +592,18 @@ pub fn run_reloading(
             link::PACKED_DATAGRAM
         },
     };
+    // The tlog and the statistics file are written by threads of their own: a FIFO nobody
+    // reads, or a disk that stalls, loses their records (counted), never routing.
     let tlog = match &config.tlog {
-        Some(path) => Some(tlog::Writer::new(BufWriter::new(create("tlog", path)?))),
+        Some(path) => Some(tlog::Spool::new(create("tlog", path)?)),
         None => None,
     };
     let mut stats_json = match &config.stats_json {
-        Some(path) => Some(BufWriter::new(create("statistics file", path)?)),
+        Some(path) => Some(Printer::new(
+            create("statistics file", path)?,
+            printer::LINES,
+            printer::json_note,
+        )),
         None => None,
     };
     let state = Arc::new(Mutex::new(State {
@@ -616,7 +615,6 @@ pub fn run_reloading(
         junk_datagrams: 0,
         by_slot: vec![None; MAX_LINKS],
         tlog,
-        tlog_error: None,
         refused: 0,
         closed: Closed::default(),
         quiet_us: options.peer_expiry.as_micros() as u64,
@@ -653,6 +651,9 @@ pub fn run_reloading(
     let mut next_table = config.stats_every.map(|d| start + d);
     // The first output given up (see `give_up`).
     let mut failed = None;
+    // tlog records dropped so far, and up to when the last note on them is the latest.
+    let mut tlog_dropped = 0;
+    let mut tlog_noted_until = start;
     loop {
         let now = Instant::now();
         if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| now >= d) {
@@ -674,7 +675,7 @@ pub fn run_reloading(
         }
         // Wakes for the statistics and the deadline, when asked for, and otherwise only when
         // woken (a signal). Without a wake channel it looks at `stop` once a second, and with
-        // a tlog once a second for a write error to report.
+        // a tlog once a second to hand its records over and look for a write error.
         let woken = reload_with.as_ref().and_then(|r| r.wake.as_ref());
         let tick = (woken.is_none() || has_tlog).then(|| now + Duration::from_secs(1));
         let json_at = stats_json.is_some().then_some(next_json);
@@ -701,13 +702,28 @@ pub fn run_reloading(
         let mut s = lock(&state);
         // A log or statistics output that fails (a full disk, a closed pipe) is reported and
         // given up; routing goes on.
-        if let Some(e) = s.tlog_error.take() {
-            s.tlog = None;
-            failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
+        if let Some(log) = s.tlog.as_mut() {
+            log.hand_over();
+            if let Some(e) = log.failure() {
+                s.tlog = None;
+                failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
+            } else if log.dropped() > tlog_dropped && now >= tlog_noted_until {
+                // At most one note every 10 s while the file stalls.
+                say(format!(
+                    "tlog {}: {} record(s) not written: the file does not keep up; routing goes on",
+                    config
+                        .tlog
+                        .as_deref()
+                        .map_or("".into(), |p| p.display().to_string()),
+                    log.dropped() - tlog_dropped
+                ));
+                tlog_dropped = log.dropped();
+                tlog_noted_until = now + Duration::from_secs(10);
+            }
         }
         if now >= next_json {
-            if let Some(out) = &mut stats_json {
-                if let Err(e) = write_json(out, &s) {
+            if let Some(out) = &stats_json {
+                if let Err(e) = out.line(stats_line(&s)) {
                     stats_json = None;
                     failed.get_or_insert(give_up(
                         "statistics file",
@@ -734,19 +750,38 @@ pub fn run_reloading(
     drop(guards);
     std::thread::sleep(Duration::from_millis(250));
     let mut s = lock(&state);
-    if let Some(out) = &mut stats_json {
-        if let Err(e) = write_json(out, &s).and_then(|()| out.flush()) {
+    // The last records are handed over first, so that the last line counts them.
+    if let Some(log) = s.tlog.as_mut() {
+        log.hand_over();
+    }
+    let last_json = stats_json.as_ref().map(|out| out.line(stats_line(&s)));
+    let mut log = s.tlog.take();
+    drop(s);
+    // The files get what is queued for them, within one patience for all of them.
+    let deadline = Instant::now() + printer::FLUSH_PATIENCE;
+    if let Some(out) = &stats_json {
+        if let Err(e) = last_json
+            .unwrap_or(Ok(()))
+            .and_then(|()| out.flush_until(deadline))
+        {
             failed.get_or_insert(give_up("statistics file", config.stats_json.as_deref(), &e));
         }
     }
-    let log_error = s.tlog_error.take();
-    if let Some(e) = log_error.or_else(|| s.tlog.as_mut().and_then(|l| l.flush().err())) {
-        failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
+    if let Some(log) = &mut log {
+        if let Err(e) = log.flush_until(deadline) {
+            failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
+        } else if log.dropped() > 0 {
+            let e = io::Error::other(format!(
+                "{} of {} record(s) not written: the file did not keep up",
+                log.dropped(),
+                log.records()
+            ));
+            failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
+        }
     }
-    drop(s);
     // What is printed goes out, unless nobody reads it.
-    let _ = out.flush(FLUSH_PATIENCE);
-    let _ = printer::flush_stderr(FLUSH_PATIENCE);
+    let _ = out.flush_until(deadline);
+    let _ = printer::flush_stderr(deadline.saturating_duration_since(Instant::now()));
     // An output given up makes the exit status say so, once everything else is done.
     failed.map_or(Ok(()), Err)
 }
@@ -795,7 +830,8 @@ fn sorted_links(links: &HashMap<PeerId, Link>) -> Vec<&Link> {
     sorted
 }
 
-fn write_json(out: &mut impl Write, state: &State) -> io::Result<()> {
+/// The line of statistics `--stats-json` writes.
+fn stats_line(state: &State) -> String {
     let (router, links, refused) = (&state.router, &state.links, state.refused);
     let links_json: Vec<_> = sorted_links(links)
         .into_iter()
@@ -820,7 +856,7 @@ fn write_json(out: &mut impl Write, state: &State) -> io::Result<()> {
     closed_json["links"] = closed.links.into();
     closed_json["tx_errors"] = closed.tx_errors.into();
     closed_json["tx_dropped"] = closed.tx_dropped.into();
-    let line = json!({
+    let mut line = json!({
         "t_us": unix_us(),
         "links": links_json,
         "closed": closed_json,
@@ -831,8 +867,11 @@ fn write_json(out: &mut impl Write, state: &State) -> io::Result<()> {
         "links_refused": refused,
         "junk_datagrams": state.junk_datagrams,
     });
-    writeln!(out, "{line}")?;
-    out.flush()
+    if let Some(log) = &state.tlog {
+        line["tlog_records"] = log.records().into();
+        line["tlog_dropped"] = log.dropped().into();
+    }
+    line.to_string()
 }
 
 /// The statistics table, as `--stats` prints it.

@@ -16,7 +16,7 @@
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::{self, Write as _};
 use std::fs::File;
-use std::io::{self, BufRead, BufWriter, Write};
+use std::io::{self, BufRead};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{mpsc, Arc, Mutex, PoisonError};
@@ -42,8 +42,6 @@ pub const QUEUE_BYTES: usize = 16 * 1024;
 /// faster than the bridge forwards) is dropped and counted as its `rx_overruns`: memory stays
 /// bounded, and the flood costs that peer's data, not another's.
 pub const BACKLOG_BYTES: usize = 256 * 1024;
-/// How long a bridge about to exit waits for its last lines to be read.
-const FLUSH_PATIENCE: Duration = Duration::from_secs(2);
 
 type Node = Bridge<MAX_INTERFACES, { storage_len(ndlcom::MAX_PAYLOAD_LEN) }, QUEUE_BYTES>;
 
@@ -141,7 +139,9 @@ struct Program {
     node: Box<Node>,
     missed: Box<MissTracker<256>>,
     missed_pairs: BTreeMap<(u8, u8), u64>,
-    log: Option<BufWriter<File>>,
+    /// The `--log`, through a printer too: a FIFO nobody reads or a disk that stalls loses
+    /// lines (and the log says how many), never forwarding.
+    log: Option<Printer>,
     start: Instant,
     /// Standard output, through a printer: a terminal paused with Ctrl-S or a pipe nobody
     /// reads loses lines (and says how many), never forwarding.
@@ -247,8 +247,14 @@ pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
     }
     drop(tx);
     let log = match &config.log {
-        Some(path) => Some(BufWriter::new(
-            File::options().create(true).append(true).open(path)?,
+        Some(path) => Some(Printer::new(
+            File::options()
+                .create(true)
+                .append(true)
+                .open(path)
+                .map_err(|e| in_file("log", Some(path), e))?,
+            printer::LINES,
+            printer::json_note,
         )),
         None => None,
     };
@@ -275,7 +281,7 @@ pub fn run(config: Config, attached: Vec<Attached>) -> io::Result<()> {
             io::stdout(),
             printer::LINES,
             if config.json {
-                json_note
+                printer::json_note
             } else {
                 printer::text_note
             },
@@ -394,12 +400,15 @@ impl Program {
         // Let the last replies go out, then the final report.
         self.flush_outputs();
         self.print_everything()?;
-        if let Some(log) = &mut self.log {
-            log.flush()?;
+        // The log and what is printed get what is queued for them, within one patience.
+        let deadline = Instant::now() + printer::FLUSH_PATIENCE;
+        if let Some(log) = &self.log {
+            log.flush_until(deadline)
+                .map_err(|e| in_file("log", self.config.log.as_deref(), e))?;
         }
         // What is printed goes out, unless nobody reads it.
-        let _ = printer::flush_stderr(FLUSH_PATIENCE);
-        match self.out.flush(FLUSH_PATIENCE) {
+        let _ = printer::flush_stderr(deadline.saturating_duration_since(Instant::now()));
+        match self.out.flush_until(deadline) {
             Err(e) if e.kind() == io::ErrorKind::TimedOut => Ok(()),
             flushed => flushed,
         }
@@ -532,12 +541,13 @@ impl Program {
             .get(i)
             .map(|s| s.name.clone())
             .unwrap_or_default();
-        if let Some(log) = &mut self.log {
+        if let Some(log) = &self.log {
             let mut buf = [0u8; ndlcom::MAX_FRAME_LEN];
             if let Ok(n) = ndlcom::encode(header, payload, &mut buf) {
                 let line =
                     json!({"t_us": unix_us(), "interface": name, "frame": hex::encode(&buf[..n])});
-                writeln!(log, "{line}")?;
+                log.line(line.to_string())
+                    .map_err(|e| in_file("log", self.config.log.as_deref(), e))?;
             }
         }
         if self.config.print == Print::All || (self.config.print == Print::Own && own) {
@@ -750,9 +760,10 @@ impl Program {
     }
 }
 
-/// The note for `n` lines not printed, as a JSON line.
-fn json_note(n: u64) -> String {
-    json!({"event": "not_printed", "lines": n}).to_string()
+/// `e`, which befell the file `what` at `path`, saying so.
+fn in_file(what: &str, path: Option<&std::path::Path>, e: io::Error) -> io::Error {
+    let path = path.map_or_else(String::new, |p| p.display().to_string());
+    io::Error::new(e.kind(), format!("{what} {path}: {e}"))
 }
 
 /// MAVLink's PING (common.xml and minimal.xml, id 4), which the bridge answers and sends. Its

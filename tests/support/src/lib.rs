@@ -76,6 +76,46 @@ pub fn shrink_pipe(fd: impl std::os::fd::AsFd) -> bool {
     }
 }
 
+/// Makes a FIFO at `path` and opens its reading end, without waiting for a writer, on a pipe
+/// shrunk to one page: a program told to write there can open it, and is stuck once it has
+/// written a few kilobytes, until the test reads (the returned end is non-blocking). `None`
+/// where that cannot be done (not Linux).
+pub fn unread_fifo(path: &std::path::Path) -> Option<std::fs::File> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        nix::unistd::mkfifo(path, nix::sys::stat::Mode::S_IRWXU).ok()?;
+        let reader = std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags(nix::libc::O_NONBLOCK)
+            .open(path)
+            .ok()?;
+        shrink_pipe(&reader).then_some(reader)
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = path;
+        None
+    }
+}
+
+/// Reads the non-blocking `reader` until its writers have all closed it.
+pub fn read_to_close(reader: &mut impl std::io::Read) -> Vec<u8> {
+    let mut got = Vec::new();
+    let mut buf = [0u8; 65536];
+    loop {
+        match reader.read(&mut buf) {
+            Ok(0) => return got,
+            Ok(n) => got.extend_from_slice(&buf[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                std::thread::sleep(std::time::Duration::from_millis(2));
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => panic!("read: {e}"),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
