@@ -108,7 +108,10 @@ fn main() -> ExitCode {
     #[cfg(feature = "zenoh")]
     ferrolink_zenoh::one_worker_thread();
     let cli = Cli::parse();
-    match run(cli.command) {
+    let result = run(cli.command);
+    // Log lines queued on the way (a link's retries, say) go out first, unless nobody reads them.
+    let _ = ferrolink_io::printer::flush_stderr(ferrolink_io::printer::FLUSH_PATIENCE);
+    match result {
         Ok(code) => code,
         // Whoever read our output stopped reading (`| head`): stop quietly, as Unix tools do.
         Err(e) if is_broken_pipe(e.as_ref()) => ExitCode::SUCCESS,

@@ -176,28 +176,39 @@ fn main_thread_runs(pid: u32) -> Option<u64> {
     stat.split_whitespace().nth(2)?.parse().ok()
 }
 
+/// An idle router sleeps: its main thread until a signal, its UDP readers until a datagram, and
+/// a `tcpin` endpoint's accept until a client (or, as a safety net should the connection that
+/// wakes it at a stop not come, every 2 s).
 #[test]
 fn an_idle_router_sleeps_until_a_signal_wakes_it() {
-    let (a, b) = (free_port(), free_port());
+    let (a, b, c) = (free_port(), free_port(), free_port());
     let router = start(
         "",
         &[
             format!("udpin://127.0.0.1:{a}"),
             format!("udpin://127.0.0.1:{b}"),
+            format!("tcpin://127.0.0.1:{c}"),
         ],
     );
     thread::sleep(Duration::from_millis(300));
-    let Some(before) = main_thread_runs(router.id()) else {
+    let (Some(before), Some(sleeps)) = (main_thread_runs(router.id()), reader_sleeps(router.id()))
+    else {
         eprintln!("note: no /proc schedstat here; the wake-up count is not checked");
         stop(router);
         return;
     };
-    // Before, it looked at its stop flag once a second.
+    // Before, the main thread looked at its stop flag once a second, and the accept every
+    // 20 ms: 125 sleeps in 2.5 s.
     thread::sleep(Duration::from_millis(2_500));
     assert_eq!(
         main_thread_runs(router.id()),
         Some(before),
         "the idle router woke"
+    );
+    let slept = reader_sleeps(router.id()).expect("sleeps") - sleeps;
+    assert!(
+        slept <= 3,
+        "the idle router's other threads slept {slept} times"
     );
     // SIGTERM still stops it at once (`stop` waits at most 5 s).
     stop(router);

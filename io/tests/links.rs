@@ -261,6 +261,67 @@ fn tcp_listen_serves_every_client() {
     first.down(c1);
 }
 
+/// A `tcpin` endpoint serves up to `MAX_TCP_CLIENTS` clients at once, each with a thread; one
+/// past them is closed as soon as it is accepted, and a client is served again once one
+/// leaves. Before, every client kept a thread and its descriptors for as long as it stayed.
+#[test]
+fn a_tcp_client_past_the_limit_is_closed_and_a_slot_that_frees_is_served() {
+    use std::io::Read;
+
+    let port = free_port();
+    let server = open(&format!("tcp-listen://127.0.0.1:{port}"));
+    let mut clients: Vec<TcpStream> = (0..link::MAX_TCP_CLIENTS)
+        .map(|_| TcpStream::connect(("127.0.0.1", port)).expect("connect"))
+        .collect();
+    let mut ups: Vec<PeerId> = (0..link::MAX_TCP_CLIENTS).map(|_| server.up().0).collect();
+    // Two more: closed at once, and never reported.
+    for _ in 0..2 {
+        let mut past = TcpStream::connect(("127.0.0.1", port)).expect("connect");
+        past.set_read_timeout(Some(PATIENCE)).expect("timeout");
+        let mut buf = [0u8; 1];
+        let read = past.read(&mut buf);
+        assert!(
+            matches!(read, Ok(0)) || read.is_err_and(|e| e.kind() != io::ErrorKind::WouldBlock),
+            "a client past the limit was kept"
+        );
+    }
+    // The others stay open.
+    clients[0]
+        .set_read_timeout(Some(Duration::from_millis(100)))
+        .expect("timeout");
+    let read = clients[0].read(&mut [0u8; 1]);
+    assert!(
+        read.as_ref().is_err_and(|e| matches!(
+            e.kind(),
+            io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+        )),
+        "{read:?}"
+    );
+    // One leaves; a newcomer gets its place.
+    drop(clients.pop());
+    let gone = ups.pop().expect("a peer");
+    server.down(gone);
+    let _newcomer = TcpStream::connect(("127.0.0.1", port)).expect("connect");
+    server.up();
+}
+
+/// A stopped `tcpin` endpoint lets its port go at once: its accept waits without polling, and
+/// is woken at the stop.
+#[test]
+fn a_stopped_tcp_server_closes_its_port_at_once() {
+    let port = free_port();
+    let server = open(&format!("tcp-listen://127.0.0.1:{port}"));
+    drop(server);
+    let start = Instant::now();
+    while TcpStream::connect(("127.0.0.1", port)).is_ok() {
+        assert!(
+            start.elapsed() < Duration::from_secs(1),
+            "the port stayed open"
+        );
+        thread::sleep(Duration::from_millis(10));
+    }
+}
+
 #[test]
 fn tcp_client_reconnects() {
     let port = free_port();

@@ -61,7 +61,7 @@ mod uring;
 pub use batch::{batch, PACKED_DATAGRAM};
 use queue::Queue;
 pub use queue::{OutputQueue, Overflow, DAEMON_QUEUE, DEFAULT_QUEUE_BYTES};
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::thread;
 use std::time::{Duration, Instant};
@@ -72,6 +72,14 @@ pub const DEFAULT_PEER_EXPIRY: Duration = Duration::from_secs(10);
 pub const MAX_BACKOFF: Duration = Duration::from_secs(1);
 /// How often readers look up from a blocking read to notice a shutdown.
 const POLL: Duration = Duration::from_millis(200);
+/// The most clients one `tcpin` endpoint serves at once, each with a thread of its own. A
+/// client past it is closed as soon as it is accepted, with a log line, so a flood of
+/// connections costs neither threads nor descriptors (the router's own limit, 64 links in all,
+/// is never looser).
+pub const MAX_TCP_CLIENTS: usize = 64;
+/// How long a `tcpin` endpoint's accept waits before it looks whether it was stopped, should
+/// the connection that wakes it at a stop (see [`Handle`]'s drop) not arrive.
+const ACCEPT_PATIENCE: Duration = Duration::from_secs(2);
 /// How long a stream peer (TCP, serial, pty) may pause after sending before it is reported
 /// [`Event::Quiet`]: far longer than a link pauses inside a frame (a 280-byte MAVLink frame
 /// takes 49 ms at 57,600 baud; USB serial adapters and radios hold bytes back for tens of
@@ -321,6 +329,8 @@ pub struct Handle {
     stop: Arc<AtomicBool>,
     local: Option<SocketAddr>,
     udp: Option<Arc<UdpSocket>>,
+    /// Whether this is a `tcpin` endpoint, whose accept waits without a timeout.
+    listens: bool,
     pack_up_to: usize,
 }
 
@@ -352,9 +362,13 @@ impl Handle {
 
 impl Drop for Handle {
     /// Stops the endpoint's threads. A UDP reader waits for datagrams without a timeout (an
-    /// idle router wakes for nothing): an empty datagram to its socket wakes it.
+    /// idle router wakes for nothing): an empty datagram to its socket wakes it. A `tcpin`
+    /// endpoint's accept is woken the same way, by a connection.
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
+        if let Some(local) = self.local.filter(|_| self.listens) {
+            let _ = TcpStream::connect_timeout(&wake_address(local), Duration::from_millis(100));
+        }
         if let Some(local) = self.udp.as_ref().and_then(|s| s.local_addr().ok()) {
             let to = wake_address(local);
             let any: SocketAddr = match to {
@@ -449,7 +463,9 @@ pub fn open(
         Endpoint::TcpIn(host, port) => {
             let listener =
                 TcpListener::bind(resolve(host, *port).map_err(context)?).map_err(context)?;
-            listener.set_nonblocking(true).map_err(context)?;
+            if !wait_for_clients(&listener) {
+                listener.set_nonblocking(true).map_err(context)?;
+            }
             let local = listener.local_addr().ok();
             spawn(&uri, {
                 let stop = stop.clone();
@@ -492,8 +508,29 @@ pub fn open(
         stop,
         local,
         udp,
+        listens: matches!(endpoint, Endpoint::TcpIn(..)),
         pack_up_to: options.pack_up_to,
     })
+}
+
+/// Lets `listener`'s accept wait up to [`ACCEPT_PATIENCE`] for a client, so that an idle
+/// endpoint wakes only for clients and its stop; `false` where it cannot (then it is polled).
+fn wait_for_clients(listener: &TcpListener) -> bool {
+    #[cfg(unix)]
+    {
+        let patience = nix::sys::time::TimeVal::new(ACCEPT_PATIENCE.as_secs() as _, 0);
+        nix::sys::socket::setsockopt(
+            listener,
+            nix::sys::socket::sockopt::ReceiveTimeout,
+            &patience,
+        )
+        .is_ok()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = listener;
+        false
+    }
 }
 
 fn spawn(name: &str, f: impl FnOnce() + Send + 'static) -> io::Result<()> {
@@ -649,14 +686,30 @@ fn tcp_in(
     stop: &Arc<AtomicBool>,
     events: &Sink,
 ) {
+    let clients = Arc::new(AtomicUsize::new(0));
     while !stop.load(Ordering::Relaxed) {
         match listener.accept() {
+            // The connection that wakes a stopped endpoint, or a client just after its stop.
+            Ok(_) if stop.load(Ordering::Relaxed) => return,
+            Ok((stream, from)) if clients.load(Ordering::Relaxed) >= MAX_TCP_CLIENTS => {
+                let _ = stream.shutdown(Shutdown::Both);
+                let _ = crate::printer::stderr().line(format!(
+                    "{name}: client {from} refused and closed: {MAX_TCP_CLIENTS} clients are \
+                     connected"
+                ));
+            }
             Ok((stream, from)) => {
                 let peer_name = format!("{name} <- {from}");
                 let (events, stop) = (events.clone(), stop.clone());
-                let _ = spawn(name, move || {
+                clients.fetch_add(1, Ordering::Relaxed);
+                let served = Arc::clone(&clients);
+                let spawned = spawn(name, move || {
                     stream_peer(index, &peer_name, stream, queue, &stop, &events);
+                    served.fetch_sub(1, Ordering::Relaxed);
                 });
+                if spawned.is_err() {
+                    clients.fetch_sub(1, Ordering::Relaxed);
+                }
             }
             Err(e) if is_timeout(&e) => thread::sleep(Duration::from_millis(20)),
             Err(_) => thread::sleep(POLL),
@@ -841,7 +894,8 @@ fn serial(
             }
             Err(e) => {
                 if !reported {
-                    eprintln!("{name}: {e}; retrying every second");
+                    let _ = crate::printer::stderr()
+                        .line(format!("{name}: {e}; retrying every second"));
                     reported = true;
                 }
             }

@@ -201,7 +201,8 @@ mod tests {
                 std::env::var_os("FERROLINK_REQUIRE_IO_URING").is_none(),
                 "this kernel gives io_uring rings, but Ring::new set none up"
             );
-            eprintln!("note: this kernel gives no io_uring; the link layer sends without one");
+            let _ = crate::printer::stderr()
+                .line("note: this kernel gives no io_uring; the link layer sends without one");
         }
         ring
     }

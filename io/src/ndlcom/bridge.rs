@@ -654,9 +654,12 @@ impl Program {
             "n" => self.config.print = Print::None,
             "q" => return Ok(false),
             "" => {}
-            other => eprintln!(
-                "unknown command `{other}`: s stats, r routes, m missed, a/o/n print all/own/none, q quit"
-            ),
+            other => {
+                let _ = printer::stderr().line(format!(
+                    "unknown command `{other}`: s stats, r routes, m missed, a/o/n print \
+                     all/own/none, q quit"
+                ));
+            }
         }
         Ok(true)
     }
