@@ -39,6 +39,12 @@ trait LinkReader: Send {
     ///
     /// A zero `timeout` only takes what is already there; an empty `buf` returns Ok(0) at once.
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize>;
+
+    /// Whether a blocked read returns when another thread shuts the stream down (a socket's
+    /// does; a device's does not), so that it need not look up to notice a stop.
+    fn woken_by_shutdown(&self) -> bool {
+        false
+    }
 }
 
 /// The sending half of a stream.

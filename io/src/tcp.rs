@@ -26,6 +26,10 @@ struct TcpReader {
 }
 
 impl LinkReader for TcpReader {
+    fn woken_by_shutdown(&self) -> bool {
+        true
+    }
+
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
         if buf.is_empty() {
             return Ok(0);

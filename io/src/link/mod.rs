@@ -36,8 +36,9 @@
 //! Threads, not an async runtime (measured against tokio in `cargo bench -p ferrolink-bench --bench
 //! router`): one blocking reader per socket or client, parked in the kernel while nothing
 //! arrives. A UDP reader waits without a timeout (dropping the [`Handle`] wakes it with an empty
-//! datagram) and takes every datagram that has arrived with one `recvmmsg`; stream readers look
-//! up every 200 ms to notice a shutdown. The sink runs on the reader's thread, so a router can
+//! datagram) and takes every datagram that has arrived with one `recvmmsg`; a TCP reader waits
+//! too (the stop shuts its socket down), and serial and pty readers look up every 200 ms to
+//! notice a stop. The sink runs on the reader's thread, so a router can
 //! route a datagram the moment it is read, with no hand-over between threads. The UDP datagrams
 //! sent on a UDP reader's thread go out together when it next waits: in the same system call as
 //! the wait, through an io_uring, on Linux 5.11 and later where the kernel gives one (container
@@ -77,9 +78,55 @@ const POLL: Duration = Duration::from_millis(200);
 /// connections costs neither threads nor descriptors (the router's own limit, 64 links in all,
 /// is never looser).
 pub const MAX_TCP_CLIENTS: usize = 64;
-/// How long a `tcpin` endpoint's accept waits before it looks whether it was stopped, should
-/// the connection that wakes it at a stop (see [`Handle`]'s drop) not arrive.
-const ACCEPT_PATIENCE: Duration = Duration::from_secs(2);
+/// How long a thread that is woken at its endpoint's stop (a `tcpin` accept, by a connection; a
+/// TCP reader, by its socket's shutdown) waits before it looks whether it was stopped anyway,
+/// should the wake-up not arrive.
+const WOKEN_PATIENCE: Duration = Duration::from_secs(2);
+
+/// An endpoint's stop: the flag its threads look at, and its connected TCP streams, shut down
+/// at the stop so that their readers, which wait without polling, see it at once.
+#[derive(Debug, Default)]
+struct Stop {
+    flag: AtomicBool,
+    streams: Mutex<HashMap<u64, TcpStream>>,
+    next: AtomicU64,
+}
+
+impl Stop {
+    fn is_set(&self) -> bool {
+        self.flag.load(Ordering::SeqCst)
+    }
+
+    /// Sets the flag and shuts down every stream it watches.
+    fn set(&self) {
+        self.flag.store(true, Ordering::SeqCst);
+        let streams =
+            std::mem::take(&mut *self.streams.lock().unwrap_or_else(PoisonError::into_inner));
+        for stream in streams.into_values() {
+            let _ = stream.shutdown(Shutdown::Both);
+        }
+    }
+
+    /// Watches `stream` until [`forget`](Self::forget) is called with what this returns.
+    fn watch(&self, stream: &TcpStream) -> Option<u64> {
+        let clone = stream.try_clone().ok()?;
+        let id = self.next.fetch_add(1, Ordering::Relaxed);
+        self.streams
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .insert(id, clone);
+        Some(id)
+    }
+
+    /// Stops watching a stream; the clone it kept, if the stop has not shut it down already.
+    fn forget(&self, id: Option<u64>) -> Option<TcpStream> {
+        self.streams
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .remove(&id?)
+    }
+}
+
 /// How long a stream peer (TCP, serial, pty) may pause after sending before it is reported
 /// [`Event::Quiet`]: far longer than a link pauses inside a frame (a 280-byte MAVLink frame
 /// takes 49 ms at 57,600 baud; USB serial adapters and radios hold bytes back for tens of
@@ -323,10 +370,11 @@ impl Default for Options {
     }
 }
 
-/// An open endpoint. Dropping it stops its threads (within 200 ms) and closes its peers.
+/// An open endpoint. Dropping it stops its threads (at once; a serial or pty reader within
+/// 200 ms) and closes its peers.
 #[derive(Debug)]
 pub struct Handle {
-    stop: Arc<AtomicBool>,
+    stop: Arc<Stop>,
     local: Option<SocketAddr>,
     udp: Option<Arc<UdpSocket>>,
     /// Whether this is a `tcpin` endpoint, whose accept waits without a timeout.
@@ -365,7 +413,7 @@ impl Drop for Handle {
     /// idle router wakes for nothing): an empty datagram to its socket wakes it. A `tcpin`
     /// endpoint's accept is woken the same way, by a connection.
     fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
+        self.stop.set();
         if let Some(local) = self.local.filter(|_| self.listens) {
             let _ = TcpStream::connect_timeout(&wake_address(local), Duration::from_millis(100));
         }
@@ -398,7 +446,7 @@ pub fn open(
     options: Options,
     events: Sink,
 ) -> io::Result<Handle> {
-    let stop = Arc::new(AtomicBool::new(false));
+    let stop = Arc::new(Stop::default());
     let name = endpoint.to_string();
     let uri = name.clone();
     let context = |e: io::Error| {
@@ -513,12 +561,12 @@ pub fn open(
     })
 }
 
-/// Lets `listener`'s accept wait up to [`ACCEPT_PATIENCE`] for a client, so that an idle
+/// Lets `listener`'s accept wait up to [`WOKEN_PATIENCE`] for a client, so that an idle
 /// endpoint wakes only for clients and its stop; `false` where it cannot (then it is polled).
 fn wait_for_clients(listener: &TcpListener) -> bool {
     #[cfg(unix)]
     {
-        let patience = nix::sys::time::TimeVal::new(ACCEPT_PATIENCE.as_secs() as _, 0);
+        let patience = nix::sys::time::TimeVal::new(WOKEN_PATIENCE.as_secs() as _, 0);
         nix::sys::socket::setsockopt(
             listener,
             nix::sys::socket::sockopt::ReceiveTimeout,
@@ -557,7 +605,7 @@ fn udp_in(
     name: &str,
     socket: &Arc<UdpSocket>,
     options: Options,
-    stop: &AtomicBool,
+    stop: &Stop,
     events: &Sink,
 ) {
     let expiry = options.peer_expiry;
@@ -568,9 +616,9 @@ fn udp_in(
     let mut sweep_at: Option<Instant> = None;
     // A sweep may come up to a sixteenth of the expiry late.
     let mut inbox = batch::Inbox::new(expiry / 16);
-    while !stop.load(Ordering::Relaxed) {
+    while !stop.is_set() {
         let received = inbox.receive(socket, sweep_at);
-        if stop.load(Ordering::Relaxed) {
+        if stop.is_set() {
             return;
         }
         let now = Instant::now();
@@ -648,13 +696,13 @@ fn udp_one_peer(
     peer: PeerId,
     socket: &UdpSocket,
     only_from: Option<SocketAddr>,
-    stop: &AtomicBool,
+    stop: &Stop,
     events: &Sink,
 ) {
     let mut inbox = batch::Inbox::new(Duration::ZERO);
-    while !stop.load(Ordering::Relaxed) {
+    while !stop.is_set() {
         let received = inbox.receive(socket, None);
-        if stop.load(Ordering::Relaxed) {
+        if stop.is_set() {
             return;
         }
         match received {
@@ -683,14 +731,14 @@ fn tcp_in(
     name: &str,
     listener: &TcpListener,
     queue: OutputQueue,
-    stop: &Arc<AtomicBool>,
+    stop: &Arc<Stop>,
     events: &Sink,
 ) {
     let clients = Arc::new(AtomicUsize::new(0));
-    while !stop.load(Ordering::Relaxed) {
+    while !stop.is_set() {
         match listener.accept() {
             // The connection that wakes a stopped endpoint, or a client just after its stop.
-            Ok(_) if stop.load(Ordering::Relaxed) => return,
+            Ok(_) if stop.is_set() => return,
             Ok((stream, from)) if clients.load(Ordering::Relaxed) >= MAX_TCP_CLIENTS => {
                 let _ = stream.shutdown(Shutdown::Both);
                 let _ = crate::printer::stderr().line(format!(
@@ -723,15 +771,16 @@ fn stream_peer(
     name: &str,
     stream: TcpStream,
     queue: OutputQueue,
-    stop: &AtomicBool,
+    stop: &Stop,
     events: &Sink,
 ) -> Option<String> {
-    let shutdown = stream.try_clone().ok();
+    // Watched, so that a stop wakes its reader at once.
+    let watched = stop.watch(&stream);
     let why = match crate::tcp::stream_halves(stream) {
         Ok((reader, writer)) => read_peer(index, name, reader, writer, queue, stop, events),
         Err(e) => Some(e.to_string()),
     };
-    if let Some(s) = shutdown {
+    if let Some(s) = stop.forget(watched) {
         let _ = s.shutdown(Shutdown::Both);
     }
     why
@@ -745,7 +794,7 @@ fn read_peer(
     reader: Box<dyn LinkReader>,
     writer: Box<dyn LinkWriter>,
     queue: OutputQueue,
-    stop: &AtomicBool,
+    stop: &Stop,
     events: &Sink,
 ) -> Option<String> {
     let peer = match peer_up(index, name, writer, queue, events) {
@@ -804,7 +853,7 @@ fn peer_up(
 fn read_until_down(
     peer: StreamPeer,
     mut reader: Box<dyn LinkReader>,
-    stop: &AtomicBool,
+    stop: &Stop,
     events: &Sink,
 ) -> Option<String> {
     let id = peer.id;
@@ -812,10 +861,16 @@ fn read_until_down(
     // When the last bytes came, until the peer is reported quiet after them.
     let mut last_rx: Option<Instant> = None;
     let why = loop {
-        if stop.load(Ordering::Relaxed) {
+        if stop.is_set() {
             return None;
         }
-        let timeout = last_rx.map_or(POLL, |t| QUIET.saturating_sub(t.elapsed()).min(POLL));
+        // A TCP reader is woken at a stop by its socket's shutdown; the others look.
+        let idle = if reader.woken_by_shutdown() {
+            WOKEN_PATIENCE
+        } else {
+            POLL
+        };
+        let timeout = last_rx.map_or(idle, |t| QUIET.saturating_sub(t.elapsed()).min(idle));
         match reader.read(&mut buf, timeout) {
             Ok(0) => {
                 if last_rx.is_some_and(|t| t.elapsed() >= QUIET) {
@@ -851,12 +906,12 @@ fn tcp_out(
     host: &str,
     port: u16,
     queue: OutputQueue,
-    stop: &AtomicBool,
+    stop: &Stop,
     events: &Sink,
 ) {
     let first = Duration::from_millis(50);
     let mut backoff = first;
-    while !stop.load(Ordering::Relaxed) {
+    while !stop.is_set() {
         let connected = resolve(host, port)
             .and_then(|addr| TcpStream::connect_timeout(&addr, Duration::from_secs(2)));
         match connected {
@@ -880,11 +935,11 @@ fn serial(
     path: &str,
     baud: u32,
     queue: OutputQueue,
-    stop: &AtomicBool,
+    stop: &Stop,
     events: &Sink,
 ) {
     let mut reported = false;
-    while !stop.load(Ordering::Relaxed) {
+    while !stop.is_set() {
         match crate::serial::open_serial(path, baud) {
             Ok((reader, writer)) => {
                 reported = false;
