@@ -889,6 +889,8 @@ fn read_until_down(
                 // Datagrams sent while handling these bytes go out together.
                 batch::batch(|| events(rx)).then_some(())?;
             }
+            // The stop shut the socket down: stopped, not down.
+            Err(_) if stop.is_set() => return None,
             Err(e) => break e.to_string(),
         }
     };
