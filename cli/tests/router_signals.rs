@@ -182,15 +182,24 @@ fn main_thread_runs(pid: u32) -> Option<u64> {
 #[test]
 fn an_idle_router_sleeps_until_a_signal_wakes_it() {
     let (a, b, c) = (free_port(), free_port(), free_port());
+    let dir = tempfile::tempdir().expect("tempdir");
+    let pty = dir.path().join("ttyIdle");
     let router = start(
         "",
         &[
             format!("udpin://127.0.0.1:{a}"),
             format!("udpin://127.0.0.1:{b}"),
             format!("tcpin://127.0.0.1:{c}"),
+            format!("pty://{}", pty.display()),
         ],
     );
     let _client = std::net::TcpStream::connect(("127.0.0.1", c)).expect("connect");
+    // A program attached to the pseudo-terminal, as an autopilot's serial link would be.
+    let _attached = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .open(&pty)
+        .expect("attach to the pty");
     thread::sleep(Duration::from_millis(300));
     let (Some(before), Some(sleeps)) = (main_thread_runs(router.id()), reader_sleeps(router.id()))
     else {
@@ -199,7 +208,8 @@ fn an_idle_router_sleeps_until_a_signal_wakes_it() {
         return;
     };
     // Before, the main thread looked at its stop flag once a second, the accept every 20 ms
-    // and the client's reader every 200 ms: 137 sleeps in 2.5 s.
+    // and the TCP client's and the pty's readers every 200 ms: 137 sleeps in 2.5 s, and 12 of
+    // them the pty's after the rest were gone.
     thread::sleep(Duration::from_millis(2_500));
     assert_eq!(
         main_thread_runs(router.id()),

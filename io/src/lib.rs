@@ -40,9 +40,10 @@ trait LinkReader: Send {
     /// A zero `timeout` only takes what is already there; an empty `buf` returns Ok(0) at once.
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize>;
 
-    /// Whether a blocked read returns when another thread shuts the stream down (a socket's
-    /// does; a device's does not), so that it need not look up to notice a stop.
-    fn woken_by_shutdown(&self) -> bool {
+    /// Whether a blocked read returns at its endpoint's stop (a socket's, which the stop shuts
+    /// down; a device's that waits on the stop's bell too), so that it need not look up now and
+    /// then to notice it.
+    fn woken_at_stop(&self) -> bool {
         false
     }
 }

@@ -1,4 +1,6 @@
 //! `serial://PATH[:BAUD]` and `pty://NAME`: both are tty devices driven through `serialport`.
+//! A reader waits for its device and its endpoint's [`Bell`] at once, so that an idle link sleeps
+//! until bytes come or the endpoint stops.
 
 use std::io::{self, Read, Write};
 use std::path::PathBuf;
@@ -11,11 +13,13 @@ use serialport::COMPort as Port;
 use serialport::TTYPort as Port;
 use serialport::{DataBits, FlowControl, Parity, SerialPort, StopBits};
 
+use crate::link::Bell;
 use crate::{is_timeout, written, Halves, LinkReader, LinkWriter, WRITE_TIMEOUT};
 
 /// Opens a serial device at `baud`, 8N1, no flow control, in exclusive mode (`TIOCEXCL` and
-/// `flock`; `serialport` clears `TIOCEXCL` again when the port is closed).
-pub(crate) fn open_serial(path: &str, baud: u32) -> io::Result<Halves> {
+/// `flock`; `serialport` clears `TIOCEXCL` again when the port is closed). Its reader returns
+/// when `bell` rings.
+pub(crate) fn open_serial(path: &str, baud: u32, bell: Option<Arc<Bell>>) -> io::Result<Halves> {
     let port = serialport::new(path, baud)
         .data_bits(DataBits::Eight)
         .parity(Parity::None)
@@ -23,13 +27,15 @@ pub(crate) fn open_serial(path: &str, baud: u32) -> io::Result<Halves> {
         .flow_control(FlowControl::None)
         .timeout(WRITE_TIMEOUT)
         .open_native()?;
-    halves(port, None)
+    halves(port, None, bell)
 }
 
-/// Splits `port` into a reader and a writer that both hold on to `keep`.
-fn halves(port: Port, keep: Option<Arc<PtyKeep>>) -> io::Result<Halves> {
+/// Splits `port` into a reader, which returns when `bell` rings, and a writer; both hold on to
+/// `keep`.
+fn halves(port: Port, keep: Option<Arc<PtyKeep>>, bell: Option<Arc<Bell>>) -> io::Result<Halves> {
     let reader = TtyReader {
         port: port.try_clone_native()?,
+        bell,
         _keep: keep.clone(),
     };
     Ok((Box::new(reader), Box::new(TtyWriter { port, _keep: keep })))
@@ -58,13 +64,35 @@ impl Drop for PtyKeep {
 #[derive(Debug)]
 struct TtyReader {
     port: Port,
+    bell: Option<Arc<Bell>>,
     _keep: Option<Arc<PtyKeep>>,
 }
 
+/// The port's descriptor, for a wait beside the bell.
+#[cfg(unix)]
+#[allow(unsafe_code)]
+fn descriptor(port: &Port) -> std::os::fd::BorrowedFd<'_> {
+    use std::os::fd::AsRawFd;
+    // SAFETY: the port owns the descriptor and closes it only when it is dropped, which the
+    // borrow of `port` rules out while the result lives. (`serialport` gives no `AsFd`.)
+    unsafe { std::os::fd::BorrowedFd::borrow_raw(port.as_raw_fd()) }
+}
+
 impl LinkReader for TtyReader {
+    fn woken_at_stop(&self) -> bool {
+        cfg!(unix) && self.bell.is_some()
+    }
+
     fn read(&mut self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
         if buf.is_empty() {
             return Ok(0);
+        }
+        #[cfg(unix)]
+        if let Some(bell) = &self.bell {
+            // Bytes, a hang-up or an error: the read below takes it at once.
+            if bell.wait(Some(descriptor(&self.port)), timeout)? != crate::link::Rang::Device {
+                return Ok(0);
+            }
         }
         self.port.set_timeout(timeout)?;
         match self.port.read(buf) {
@@ -96,7 +124,7 @@ impl LinkWriter for TtyWriter {
 /// Creates a pseudo-terminal pair, links `name` to its slave device and talks through the
 /// master. Both ends stay open for the lifetime of the link.
 #[cfg(unix)]
-pub(crate) fn open_pty(name: &str) -> io::Result<Halves> {
+pub(crate) fn open_pty(name: &str, bell: Option<Arc<Bell>>) -> io::Result<Halves> {
     use crate::WRITE_TIMEOUT;
     use std::path::Path;
 
@@ -130,11 +158,11 @@ pub(crate) fn open_pty(name: &str) -> io::Result<Halves> {
         target,
     });
     master.set_timeout(WRITE_TIMEOUT)?;
-    halves(master, Some(keep))
+    halves(master, Some(keep), bell)
 }
 
 #[cfg(not(unix))]
-pub(crate) fn open_pty(_name: &str) -> io::Result<Halves> {
+pub(crate) fn open_pty(_name: &str, _bell: Option<Arc<Bell>>) -> io::Result<Halves> {
     Err(io::Error::new(
         io::ErrorKind::Unsupported,
         "pty:// links need a Unix system",

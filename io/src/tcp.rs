@@ -26,7 +26,7 @@ struct TcpReader {
 }
 
 impl LinkReader for TcpReader {
-    fn woken_by_shutdown(&self) -> bool {
+    fn woken_at_stop(&self) -> bool {
         true
     }
 

@@ -506,8 +506,12 @@ mod tty {
             exchange(&pw, &serial, sp, &all_bytes());
             exchange(&sw, &pty, pp, &all_bytes());
             drop((serial, sw));
-            // The reader notices the stop within its poll period.
-            thread::sleep(Duration::from_millis(300));
+            // The stop wakes the reader, which lets the device go.
+            eventually("the serial endpoint kept the device after its stop", || {
+                serialport::new(path.to_str().unwrap(), 115_200)
+                    .open_native()
+                    .is_ok()
+            });
         }
         // Root ignores the exclusive flag, so where the test runs as root (and can switch
         // users) check that an unprivileged user can attach, too.

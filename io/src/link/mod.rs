@@ -37,8 +37,8 @@
 //! router`): one blocking reader per socket or client, parked in the kernel while nothing
 //! arrives. A UDP reader waits without a timeout (dropping the [`Handle`] wakes it with an empty
 //! datagram) and takes every datagram that has arrived with one `recvmmsg`; a TCP reader waits
-//! too (the stop shuts its socket down), and serial and pty readers look up every 200 ms to
-//! notice a stop. The sink runs on the reader's thread, so a router can
+//! too (the stop shuts its socket down), and so do serial and pty readers (they wait for their
+//! device and the stop's [`Bell`] at once). The sink runs on the reader's thread, so a router can
 //! route a datagram the moment it is read, with no hand-over between threads. The UDP datagrams
 //! sent on a UDP reader's thread go out together when it next waits: in the same system call as
 //! the wait, through an io_uring, on Linux 5.11 and later where the kernel gives one (container
@@ -55,11 +55,13 @@ use std::net::{Shutdown, SocketAddr, TcpListener, TcpStream, UdpSocket};
 use crate::{is_timeout, LinkReader, LinkWriter};
 
 mod batch;
+mod bell;
 mod queue;
 #[cfg(target_os = "linux")]
 mod uring;
 
 pub use batch::{batch, PACKED_DATAGRAM};
+pub(crate) use bell::{Bell, Rang};
 use queue::Queue;
 pub use queue::{OutputQueue, Overflow, DAEMON_QUEUE, DEFAULT_QUEUE_BYTES};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -71,7 +73,9 @@ use std::time::{Duration, Instant};
 pub const DEFAULT_PEER_EXPIRY: Duration = Duration::from_secs(10);
 /// The longest wait between `tcpout` connection attempts.
 pub const MAX_BACKOFF: Duration = Duration::from_secs(1);
-/// How often readers look up from a blocking read to notice a shutdown.
+/// How often a reader that nothing wakes at a stop (a device's, where the system gives no pipe
+/// for a [`Bell`]) looks up from its read to notice it; how long a reader pauses after a failed
+/// read.
 const POLL: Duration = Duration::from_millis(200);
 /// The most clients one `tcpin` endpoint serves at once, each with a thread of its own. A
 /// client past it is closed as soon as it is accepted, with a log line, so a flood of
@@ -83,13 +87,15 @@ pub const MAX_TCP_CLIENTS: usize = 64;
 /// should the wake-up not arrive.
 const WOKEN_PATIENCE: Duration = Duration::from_secs(2);
 
-/// An endpoint's stop: the flag its threads look at, and its connected TCP streams, shut down
-/// at the stop so that their readers, which wait without polling, see it at once.
+/// An endpoint's stop: the flag its threads look at; its connected TCP streams, shut down at
+/// the stop so that their readers, which wait without polling, see it at once; and a
+/// [`Bell`] for the threads that wait on a device or a clock, made when one asks for it.
 #[derive(Debug, Default)]
 struct Stop {
     flag: AtomicBool,
     streams: Mutex<HashMap<u64, TcpStream>>,
     next: AtomicU64,
+    bell: Mutex<Option<Arc<Bell>>>,
 }
 
 impl Stop {
@@ -104,6 +110,31 @@ impl Stop {
             std::mem::take(&mut *self.streams.lock().unwrap_or_else(PoisonError::into_inner));
         for stream in streams.into_values() {
             let _ = stream.shutdown(Shutdown::Both);
+        }
+        if let Some(bell) = &*self.bell.lock().unwrap_or_else(PoisonError::into_inner) {
+            bell.ring();
+        }
+    }
+
+    /// The bell that rings at the stop (rung already if the stop came first), or `None` where
+    /// the system gives no pipe for one.
+    fn bell(&self) -> Option<Arc<Bell>> {
+        let mut bell = self.bell.lock().unwrap_or_else(PoisonError::into_inner);
+        if bell.is_none() {
+            *bell = Bell::new().map(Arc::new);
+            // `set` stores the flag before it looks for a bell, under the same lock.
+            if let Some(b) = bell.as_ref().filter(|_| self.is_set()) {
+                b.ring();
+            }
+        }
+        bell.clone()
+    }
+
+    /// Sleeps for `time`, or less if the stop comes first.
+    fn sleep(&self, time: Duration) {
+        match self.bell() {
+            Some(bell) => bell.sleep(time),
+            None => thread::sleep(time),
         }
     }
 
@@ -370,8 +401,7 @@ impl Default for Options {
     }
 }
 
-/// An open endpoint. Dropping it stops its threads (at once; a serial or pty reader within
-/// 200 ms) and closes its peers.
+/// An open endpoint. Dropping it stops its threads at once and closes its peers.
 #[derive(Debug)]
 pub struct Handle {
     stop: Arc<Stop>,
@@ -540,7 +570,7 @@ pub fn open(
         Endpoint::Pty(link) => {
             // Created and reported now, so that the link exists and can be written to when
             // `open` returns.
-            let (reader, writer) = crate::serial::open_pty(link).map_err(context)?;
+            let (reader, writer) = crate::serial::open_pty(link, stop.bell()).map_err(context)?;
             let peer = peer_up(index, &name, writer, options.queue, &events)?
                 .ok_or_else(|| io::Error::other(format!("{uri}: nobody listens for events")))?;
             spawn(&uri, {
@@ -864,8 +894,9 @@ fn read_until_down(
         if stop.is_set() {
             return None;
         }
-        // A TCP reader is woken at a stop by its socket's shutdown; the others look.
-        let idle = if reader.woken_by_shutdown() {
+        // A TCP reader is woken at a stop by its socket's shutdown, a device's by the bell; a
+        // reader with neither looks now and then.
+        let idle = if reader.woken_at_stop() {
             WOKEN_PATIENCE
         } else {
             POLL
@@ -924,7 +955,7 @@ fn tcp_out(
                 }
             }
             Err(_) => {
-                thread::sleep(backoff);
+                stop.sleep(backoff);
                 backoff = (backoff * 2).min(MAX_BACKOFF);
             }
         }
@@ -942,7 +973,7 @@ fn serial(
 ) {
     let mut reported = false;
     while !stop.is_set() {
-        match crate::serial::open_serial(path, baud) {
+        match crate::serial::open_serial(path, baud, stop.bell()) {
             Ok((reader, writer)) => {
                 reported = false;
                 if read_peer(index, name, reader, writer, queue, stop, events).is_none() {
@@ -957,6 +988,6 @@ fn serial(
                 }
             }
         }
-        thread::sleep(Duration::from_secs(1));
+        stop.sleep(Duration::from_secs(1));
     }
 }

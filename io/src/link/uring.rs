@@ -7,7 +7,8 @@
 //! socket it sends from. Here the peers are woken while the reader is about to sleep anyway, and
 //! the only switch is its own (measured in `cargo bench -p ferrolink-bench --bench router`).
 //!
-//! This is the link layer's one module with `unsafe`: the kernel reads the datagrams' bytes and
+//! This is the link layer's one module with `unsafe` (beside a serial port's descriptor lent to a
+//! poll, in `serial.rs`): the kernel reads the datagrams' bytes and
 //! addresses through pointers, so they must stay where they are until it is done with them. See
 //! [`Ring::send_and_wait`].
 #![allow(unsafe_code)]

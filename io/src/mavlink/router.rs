@@ -744,8 +744,8 @@ pub fn run_reloading(
             }
         }
     }
-    // Stop the readers first (they notice within 200 ms), so nothing is routed after the last
-    // record is flushed.
+    // Stop the readers first (they are woken at once, and finish what they were routing well
+    // within this), so nothing is routed after the last record is flushed.
     drop(opened);
     drop(guards);
     std::thread::sleep(Duration::from_millis(250));
