@@ -624,6 +624,22 @@ mod tty {
         master.write_all(b"reopened").unwrap();
         assert_eq!(again.read_exactly(peer, 8), b"reopened");
     }
+
+    /// A device that hangs up while its reader waits (a USB adapter pulled out; here the pty's
+    /// master closing under its slave) takes the link down: the wait beside the stop's bell
+    /// wakes for the hang-up, and the reader does not spin on it.
+    #[test]
+    fn a_serial_device_that_hangs_up_takes_its_link_down() {
+        let Some((master, slave)) = pty_pair() else {
+            return;
+        };
+        let slave_path = slave.name().unwrap();
+        let serial = open(&format!("serial://{slave_path}"));
+        let (peer, _, _) = serial.up();
+        serial.quiet(Duration::from_millis(100));
+        drop((master, slave));
+        serial.down(peer);
+    }
 }
 
 /// A `udpin` endpoint on a free port whose peers expire after `expiry`.
