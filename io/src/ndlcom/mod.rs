@@ -41,6 +41,7 @@
 //!   any other file there is an error. The symlink is removed when the endpoint closes.
 
 pub mod bridge;
+mod ping;
 
 use std::fmt;
 use std::str::FromStr;

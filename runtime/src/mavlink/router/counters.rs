@@ -141,3 +141,11 @@ pub struct RouterCounters {
     /// Sources forgotten to make room for a new one.
     pub sources_evicted: u64,
 }
+
+/// How many frames of a source went missing between sequence numbers `last` and `seq`: `None`
+/// for a step back (reordering, or a duplicate), which is no loss. A jump of 128 or more counts
+/// as a step back, since the 8-bit sequence cannot tell the two apart.
+pub fn sequence_gap(last: u8, seq: u8) -> Option<u8> {
+    let gap = seq.wrapping_sub(last.wrapping_add(1));
+    (gap < 128).then_some(gap)
+}

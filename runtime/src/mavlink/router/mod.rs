@@ -67,7 +67,7 @@ use core::fmt;
 mod counters;
 mod filter;
 
-pub use counters::{DropReason, Drops, LinkCounters, RouterCounters, SourceCounters};
+pub use counters::{sequence_gap, DropReason, Drops, LinkCounters, RouterCounters, SourceCounters};
 pub use filter::{ByteSet, Filter, IdSet, LinkConfig, LinkFilter, NoFilter, ID_SET_CAPACITY};
 
 /// A set of links, bit `i` for link `i`.
@@ -759,14 +759,6 @@ impl<
             self.counters.sources_evicted += 1;
         }
     }
-}
-
-/// How many frames of a source went missing between sequence numbers `last` and `seq`: `None`
-/// for a step back (reordering, or a duplicate), which is no loss. A jump of 128 or more counts
-/// as a step back, since the 8-bit sequence cannot tell the two apart.
-pub fn sequence_gap(last: u8, seq: u8) -> Option<u8> {
-    let gap = seq.wrapping_sub(last.wrapping_add(1));
-    (gap < 128).then_some(gap)
 }
 
 /// Puts `item` into the first free slot, or in place of the one with the smallest `age` key;

@@ -32,6 +32,11 @@ use super::{tlog, unix_us};
 use crate::link::{self, Event, OutputQueue, Overflow, PeerId, Sender};
 use crate::printer::{self, Printer};
 
+mod output;
+mod stats;
+use output::{create, give_up, say};
+use stats::{sorted_links, stats_line, table};
+
 /// What the router daemon does.
 #[derive(Debug, Clone, Default)]
 pub struct Config {
@@ -417,27 +422,6 @@ fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
     state.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
-/// Says `line` on stderr through the process's printer, so that a stderr nobody reads never
-/// holds up routing.
-fn say(line: String) {
-    let _ = printer::stderr().line(line);
-}
-
-/// Creates an output file (`what`: "tlog", "statistics file"); the error names it by what it
-/// is, not by the option (it may come from a configuration file), with the path, and says when
-/// the directory is missing.
-fn create(what: &str, path: &std::path::Path) -> io::Result<File> {
-    File::create(path).map_err(|e| {
-        let hint = match path.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => {
-                format!("\n  hint: the directory {} does not exist", dir.display())
-            }
-            _ => String::new(),
-        };
-        io::Error::new(e.kind(), format!("{what} {}: {e}{hint}", path.display()))
-    })
-}
-
 /// A reload of the endpoints while the router runs (on SIGHUP, say).
 pub struct Reload {
     /// Set to ask for a reload; the router clears it.
@@ -786,20 +770,6 @@ pub fn run_reloading(
     failed.map_or(Ok(()), Err)
 }
 
-/// The error of the output `what` (a file by what it is, `--stats` by its option, the only way
-/// to ask for it), written to `path` (else to stdout), that failed with `e`:
-/// said on stderr at once, since routing goes on without that output.
-fn give_up(what: &str, path: Option<&std::path::Path>, e: &io::Error) -> io::Error {
-    let to = path.map_or_else(|| "stdout".to_owned(), |p| p.display().to_string());
-    say(format!(
-        "{what} {to}: {e}; no more is written to it, routing goes on"
-    ));
-    io::Error::new(
-        e.kind(),
-        format!("{what} {to}: {e} (given up while routing)"),
-    )
-}
-
 fn no_endpoints() -> io::Error {
     io::Error::new(
         io::ErrorKind::InvalidInput,
@@ -807,134 +777,4 @@ fn no_endpoints() -> io::Error {
          (udpin://0.0.0.0:14550 serial:///dev/ttyACM0:57600 ...) or as [[endpoint]] tables \
          in the --config file",
     )
-}
-
-fn counters_json(c: &LinkCounters) -> serde_json::Value {
-    let d = &c.drops;
-    json!({
-        "rx_frames": c.rx_frames, "rx_bytes": c.rx_bytes,
-        "tx_frames": c.tx_frames, "tx_bytes": c.tx_bytes,
-        "unchecked": c.unchecked, "crc_failures": c.crc_failures,
-        "garbage_bytes": c.garbage_bytes, "truncated_datagrams": c.truncated_datagrams,
-        "drops": {
-            "unsigned": d.unsigned, "bad_signature": d.bad_signature,
-            "duplicate": d.duplicate, "filtered_in": d.filtered_in,
-            "no_route": d.no_route, "filtered_out": d.filtered_out, "late": d.late,
-        },
-    })
-}
-
-fn sorted_links(links: &HashMap<PeerId, Link>) -> Vec<&Link> {
-    let mut sorted: Vec<&Link> = links.values().collect();
-    sorted.sort_by_key(|l| l.slot);
-    sorted
-}
-
-/// The line of statistics `--stats-json` writes.
-fn stats_line(state: &State) -> String {
-    let (router, links, refused) = (&state.router, &state.links, state.refused);
-    let links_json: Vec<_> = sorted_links(links)
-        .into_iter()
-        .filter_map(|l| {
-            let mut c = counters_json(router.link_counters(l.slot)?);
-            c["link"] = l.name.clone().into();
-            c["tx_errors"] = l.tx_errors.into();
-            c["tx_dropped"] = l.sender.dropped().into();
-            Some(c)
-        })
-        .collect();
-    let sources: Vec<_> = router
-        .sources()
-        .map(|s| {
-            json!({"sysid": s.sysid, "compid": s.compid, "rx_frames": s.rx_frames,
-                   "rx_bytes": s.rx_bytes, "tx_frames": s.tx_frames, "lost": s.lost})
-        })
-        .collect();
-    let r = router.counters();
-    let closed = &state.closed;
-    let mut closed_json = counters_json(&closed.counters);
-    closed_json["links"] = closed.links.into();
-    closed_json["tx_errors"] = closed.tx_errors.into();
-    closed_json["tx_dropped"] = closed.tx_dropped.into();
-    let mut line = json!({
-        "t_us": unix_us(),
-        "links": links_json,
-        "closed": closed_json,
-        "sources": sources,
-        "routes": router.routes().count(),
-        "routes_evicted": r.routes_evicted,
-        "sources_evicted": r.sources_evicted,
-        "links_refused": refused,
-        "junk_datagrams": state.junk_datagrams,
-    });
-    if let Some(log) = &state.tlog {
-        line["tlog_records"] = log.records().into();
-        line["tlog_dropped"] = log.dropped().into();
-    }
-    line.to_string()
-}
-
-/// The statistics table, as `--stats` prints it.
-fn table(state: &State) -> String {
-    use std::fmt::Write as _;
-
-    let (router, links) = (&state.router, &state.links);
-    let mut out = String::new();
-    let _ = writeln!(
-        out,
-        "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
-        "link", "rx", "tx", "crc", "dropped", "tx err", "tx drop"
-    );
-    for l in sorted_links(links) {
-        let Some(c) = router.link_counters(l.slot) else {
-            continue;
-        };
-        let _ = writeln!(
-            out,
-            "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
-            l.name,
-            c.rx_frames,
-            c.tx_frames,
-            c.crc_failures,
-            c.drops.inbound(),
-            l.tx_errors,
-            l.sender.dropped()
-        );
-    }
-    let closed = &state.closed;
-    if closed.links > 0 {
-        let c = &closed.counters;
-        let _ = writeln!(
-            out,
-            "{:<44} {:>9} {:>9} {:>6} {:>8} {:>8} {:>8}",
-            format!(
-                "({} closed link{})",
-                closed.links,
-                if closed.links == 1 { "" } else { "s" }
-            ),
-            c.rx_frames,
-            c.tx_frames,
-            c.crc_failures,
-            c.drops.inbound(),
-            closed.tx_errors,
-            closed.tx_dropped
-        );
-    }
-    let _ = writeln!(
-        out,
-        "{:<12} {:>9} {:>9} {:>6}",
-        "source", "rx", "tx", "lost"
-    );
-    for s in router.sources() {
-        let _ = writeln!(
-            out,
-            "{:<12} {:>9} {:>9} {:>6}",
-            format!("{}/{}", s.sysid, s.compid),
-            s.rx_frames,
-            s.tx_frames,
-            s.lost
-        );
-    }
-    out.truncate(out.trim_end().len());
-    out
 }
