@@ -379,6 +379,52 @@ fn a_megabyte_read_through_a_bad_radio_is_byte_exact() {
     );
 }
 
+/// A main loop that takes the client's events only now and then (after handling every frame
+/// in its buffer, say) still gets every byte and every entry: while four events wait, the
+/// client takes no more data or entries, and asks for them again.
+#[test]
+fn events_taken_late_lose_no_bytes_and_no_entries() {
+    let mut fs = sample_fs();
+    fs.dirs.push("deep".into());
+    for i in 0..100 {
+        fs.files.insert(
+            format!("deep/a-rather-long-file-name-{i:03}.log"),
+            Vec::new(),
+        );
+    }
+    fs.files.insert("big.bin".into(), file(20_000, 3));
+    let want = fs.files["big.bin"].clone();
+    let (mut gcs, mut vehicle) = pair(fs);
+    for read in [true, false] {
+        gcs.done = None;
+        if read {
+            gcs.client.read(0, "/big.bin").unwrap();
+        } else {
+            gcs.client.list(0, "/deep").unwrap();
+        }
+        let mut now = 0;
+        for round in 0.. {
+            assert!(round < 10_000, "no end");
+            while let Some(m) = gcs.client.poll_transmit(now, &mut [][..]) {
+                vehicle.handle(now, GCS, &m);
+            }
+            while let Some(m) = vehicle.poll_transmit(now) {
+                gcs.client.handle(now, VEHICLE, &m);
+            }
+            if round % 10 == 9 {
+                gcs.drain();
+            }
+            if gcs.done.is_some() {
+                break;
+            }
+            now += 1_000;
+        }
+        assert_eq!(gcs.done, Some(Ok(None)));
+    }
+    assert!(gcs.got == want, "the bytes differ");
+    assert_eq!(gcs.listing.len(), 100);
+}
+
 #[test]
 fn late_burst_replies_never_pass_for_the_answers_to_reads() {
     // Burst replies held back past the end of their burst, while the client reads gaps with

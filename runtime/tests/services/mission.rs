@@ -393,6 +393,37 @@ fn a_lost_final_ack_is_sent_again() {
     );
 }
 
+/// An edited mission of the same size, uploaded again at once (and again after a clear), is the
+/// one the vehicle holds when the client reports it taken. The server repeats the last upload's
+/// final ACK and, for a while, takes a count like the last one for a late copy of it: the new
+/// upload must not end on those old ACKs.
+#[test]
+fn an_edited_mission_uploaded_again_at_once_is_the_one_held() {
+    let (mut gcs, mut vehicle) = pair();
+    let mut sim = Sim::new(3, Faults::CLEAN);
+    for (salt, clear_first) in [(0, false), (1, false), (2, true), (3, false)] {
+        if clear_first {
+            gcs.client.clear(MavMissionType::Mission).unwrap();
+            assert_eq!(
+                until_event(&mut sim, &mut gcs, &mut vehicle),
+                Event::Cleared(Some(MavMissionResult::MavMissionAccepted))
+            );
+        }
+        let items = plan(5, salt);
+        gcs.items = List(items.clone());
+        gcs.client.upload(MavMissionType::Mission, 5).unwrap();
+        assert_eq!(
+            until_event(&mut sim, &mut gcs, &mut vehicle),
+            Event::Uploaded(Some(MavMissionResult::MavMissionAccepted)),
+            "upload {salt}"
+        );
+        assert!(
+            same(&vehicle.store.held[0], &items),
+            "upload {salt}: the vehicle holds another mission"
+        );
+    }
+}
+
 /// A server stuck on one item asks for it again and again. Every request is answered, but the
 /// upload ends, as silence would end it, once as many requests as silence allows brought
 /// nothing further; a server that moves on, however slowly, is followed to the end.

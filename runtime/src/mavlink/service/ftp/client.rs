@@ -345,11 +345,18 @@ impl Client {
         match self.events.iter_mut().find(|e| e.is_none()) {
             Some(slot) => *slot = Some(event),
             None => {
-                // Data is written by offset and re-read if lost; the end must get through.
+                // The end must get through. Data and listings never get here: they wait for
+                // room (`has_event_room`), so what this drops is never bytes of the file.
                 self.events.rotate_left(1);
                 self.events[3] = Some(event);
             }
         }
+    }
+
+    /// Room for one more [`Event::Data`] or [`Event::Listing`] and the [`Event::Done`] that
+    /// may follow it. Without it, what arrives is treated as lost and asked for again.
+    fn has_event_room(&self) -> bool {
+        self.events.iter().filter(|e| e.is_none()).count() >= 2
     }
 
     fn finish(&mut self, result: Result<Option<u32>, Error>) {
@@ -381,10 +388,11 @@ impl Client {
         }
     }
 
-    /// Bytes read at `offset`: an [`Event::Data`] if any of them were missing.
+    /// Bytes read at `offset`: an [`Event::Data`] if any of them were missing. While the
+    /// events are not taken, they are treated as lost, and read again later.
     fn take(&mut self, offset: u32, bytes: &[u8]) {
         let end = offset.saturating_add(bytes.len() as u32).min(self.size);
-        if offset >= end {
+        if offset >= end || !self.has_event_room() {
             return;
         }
         let mut new = false;
@@ -512,9 +520,12 @@ impl Client {
                 self.finish(Ok(value));
             }
             (Op::List, None) if p.size > 0 => {
-                let n = entries(p.bytes()).count() as u32;
-                self.push(Event::Listing(Chunk::new(p.bytes())));
-                let index = self.request.offset + n;
+                // With no room for the entries, ask for them again rather than lose them.
+                let mut index = self.request.offset;
+                if self.has_event_room() {
+                    index += entries(p.bytes()).count() as u32;
+                    self.push(Event::Listing(Chunk::new(p.bytes())));
+                }
                 self.send_single(Opcode::ListDirectory, index, 0);
             }
             (Op::List, None) | (Op::List, Some(Nak::Eof)) => self.finish(Ok(None)),
@@ -783,7 +794,9 @@ impl Client {
         at
     }
 
-    /// What an operation brought, until `None`.
+    /// What an operation brought, until `None`. The client holds four events: while they
+    /// are not taken, it takes no more file data or entries (they are asked for again), so
+    /// calling this after each [`Client::handle`] keeps a transfer at full speed.
     pub fn poll_event(&mut self) -> Option<Event> {
         let e = self.events[0].take();
         self.events.rotate_left(1);

@@ -279,11 +279,20 @@ impl Client {
         }
         match (self.op, msg) {
             // MAV_MISSION_INVALID_SEQUENCE is no end: ArduPilot answers an item out of turn
-            // so, and carries on.
-            (Op::Upload { .. }, Message::MissionAck(a))
-                if a.mission_type == kind
-                    && own.is_addressed_by(a.target_system, a.target_component)
-                    && a.r#type != MavMissionResult::MavMissionInvalidSequence =>
+            // so, and carries on. MAV_MISSION_ACCEPTED before the last item went out is no end
+            // either: it is a late copy of an earlier upload's ACK (servers repeat the final
+            // one), and taking it would report a mission the vehicle never got.
+            (
+                Op::Upload {
+                    count, last_sent, ..
+                },
+                Message::MissionAck(a),
+            ) if a.mission_type == kind
+                && own.is_addressed_by(a.target_system, a.target_component)
+                && a.r#type != MavMissionResult::MavMissionInvalidSequence
+                && (a.r#type != MavMissionResult::MavMissionAccepted
+                    || last_sent
+                    || count == 0) =>
             {
                 self.answered(now_us);
                 self.finish(Event::Uploaded(Some(a.r#type)));

@@ -240,6 +240,15 @@ impl Server {
                 if own.is_addressed_by(c.target_system, c.target_component) =>
             {
                 store.clear(c.mission_type);
+                if self
+                    .completed
+                    .is_some_and(|(_, kind, _, _)| kind == c.mission_type)
+                {
+                    // The upload just taken is gone: no more copies of its ACK, and the same
+                    // count again is a new upload, not a late copy.
+                    self.completed = None;
+                    self.ack_repeats = 0;
+                }
                 self.reply(Reply::Ack(
                     from,
                     c.mission_type,
