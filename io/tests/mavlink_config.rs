@@ -161,11 +161,44 @@ Colour = blue
     let gcs = &c.endpoints[2].link;
     assert_eq!(gcs.outbound.allow_msg.as_slice(), [0, 30]);
     assert!(gcs.inbound.block_src_sys.contains(66));
-    assert_eq!(gcs.dedup_window_us, 50_000);
+    assert!(c.endpoints.iter().all(|e| e.link.dedup_window_us == 50_000));
     assert_eq!((gcs.group, c.endpoints[3].link.group), (1, 1));
     assert_eq!(
         c.warnings,
         ["[TcpEndpoint companion]: key \"colour\" is not supported, ignored"]
+    );
+}
+
+/// The deduplication period is the whole router's, as in mavlink-router: it holds for the
+/// endpoints of sections before `[General]` and for the TCP server's clients too.
+#[test]
+fn main_conf_deduplication_holds_for_every_endpoint() {
+    let text = "
+[UdpEndpoint radio]
+Mode = Server
+Port = 14550
+
+[General]
+DeduplicationPeriod = 20
+TcpServerPort = 5760
+
+[UdpEndpoint gcs]
+Address = 127.0.0.1
+Port = 14551
+";
+    let c = from_main_conf(text).unwrap();
+    let windows: Vec<(String, u64)> = c
+        .endpoints
+        .iter()
+        .map(|e| (e.endpoint.to_string(), e.link.dedup_window_us))
+        .collect();
+    assert_eq!(
+        windows,
+        [
+            ("udpin://0.0.0.0:14550".to_owned(), 20_000),
+            ("tcpin://0.0.0.0:5760".to_owned(), 20_000),
+            ("udpout://127.0.0.1:14551".to_owned(), 20_000),
+        ]
     );
 }
 
@@ -234,4 +267,60 @@ group = "buses"
     ");
     let err = from_toml("[[endpoint]]\nuri = \"bus://left\"\n", Path::new(".")).unwrap_err();
     assert!(err.to_string().contains("unknown scheme \"bus\""), "{err}");
+}
+
+/// Every filter of `rules` lists something.
+fn every_filter_set(rules: &ferrolink_runtime::mavlink::router::Filter) -> bool {
+    !rules.allow_msg.is_empty()
+        && !rules.block_msg.is_empty()
+        && !rules.allow_src_sys.is_empty()
+        && !rules.block_src_sys.is_empty()
+        && !rules.allow_src_comp.is_empty()
+        && !rules.block_src_comp.is_empty()
+}
+
+/// The fuzzer's `every-key` seeds are files the router takes whole, each key with a value that
+/// is not its default, so fuzzing starts from every key-dependent path.
+#[test]
+fn the_every_key_fuzz_seeds_set_every_key() {
+    let seeds = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/router_config");
+    let read = |name: &str| std::fs::read_to_string(seeds.join(name)).unwrap();
+
+    let c = from_toml(&read("every-key.toml"), Path::new(".")).unwrap();
+    assert_eq!(c.warnings, Vec::<String>::new());
+    assert_eq!(c.dialects.len(), 2);
+    assert!(c.tlog.is_some() && c.stats_json.is_some() && c.peer_expiry.is_some());
+    assert!(c.queue.is_some() && c.one_frame_per_datagram == Some(true));
+    let first = &c.endpoints[0].link;
+    assert!(every_filter_set(&first.inbound) && every_filter_set(&first.outbound));
+    assert!(first.require_signing.is_some() && first.drop_unknown_ids);
+    assert!(first.group != 0 && first.dedup_window_us != 0 && first.max_delay_us != 0);
+
+    let c = from_main_conf(&read("every-key.conf")).unwrap();
+    // No key went unread: the one warning is for the section the seed adds to be ignored.
+    assert_eq!(c.warnings, ["[Unknown]: unknown section, ignored"]);
+    assert!(c.tlog.is_some());
+    let kinds: Vec<_> = c
+        .endpoints
+        .iter()
+        .map(|e| match &e.endpoint {
+            Endpoint::TcpIn(..) => "tcpin",
+            Endpoint::Serial(..) => "serial",
+            Endpoint::UdpIn(..) => "udpin",
+            Endpoint::UdpOut(..) => "udpout",
+            Endpoint::TcpOut(..) => "tcpout",
+            _ => "other",
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        ["tcpin", "serial", "udpin", "udpin", "udpout", "tcpout"]
+    );
+    let links: Vec<_> = c.endpoints.iter().map(|e| &e.link).collect();
+    assert!(links.iter().all(|l| l.dedup_window_us == 100_000));
+    let (uart, listen, gcs) = (links[1], links[2], links[4]);
+    assert!(!uart.inbound.allow_src_sys.is_empty() && !uart.inbound.block_src_comp.is_empty());
+    assert!(!listen.inbound.allow_msg.is_empty() && !listen.inbound.block_msg.is_empty());
+    assert!(listen.group != 0 && listen.group == links[3].group);
+    assert!(every_filter_set(&gcs.outbound));
 }

@@ -29,13 +29,13 @@
 //! CLI registers `zenoh://`); such endpoints land in [`FileConfig::extra`].
 //!
 //! `main.conf` (the keys people use): `[General]` `TcpServerPort`, `Log` (a directory: the tlog
-//! goes there), `DeduplicationPeriod` (ms); `[UartEndpoint NAME]` `Device`, `Baud` (the first of
-//! a list); `[UdpEndpoint NAME]` `Mode` (`Normal`/`Client` sends to `Address:Port`, `Server` or
-//! `Eavesdropping` listens there), `Address`, `Port`; `[TcpEndpoint NAME]` `Address`, `Port`;
-//! and in every endpoint `Group` and the filters `AllowMsgIdOut`, `BlockMsgIdOut`,
-//! `AllowSrcCompOut`, `BlockSrcCompOut`, `AllowSrcSysOut`, `BlockSrcSysOut` and their `In`
-//! counterparts, as comma-separated lists. Keys are case-insensitive, as mavlink-router reads
-//! them. Other keys are reported as warnings, never silently ignored.
+//! goes there), `DeduplicationPeriod` (ms, for every endpoint); `[UartEndpoint NAME]` `Device`,
+//! `Baud` (the first of a list); `[UdpEndpoint NAME]` `Mode` (`Normal`/`Client` sends to
+//! `Address:Port`, `Server` or `Eavesdropping` listens there), `Address`, `Port`; `[TcpEndpoint
+//! NAME]` `Address`, `Port`; and in every endpoint `Group` and the filters `AllowMsgIdOut`,
+//! `BlockMsgIdOut`, `AllowSrcCompOut`, `BlockSrcCompOut`, `AllowSrcSysOut`, `BlockSrcSysOut` and
+//! their `In` counterparts, as comma-separated lists. Keys are case-insensitive, as mavlink-router
+//! reads them. Other keys are reported as warnings, never silently ignored.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -559,10 +559,7 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                 let list = list::<u32>(get(key), &at, key)?;
                 ids(&list, &at, key)
             };
-            let mut link: LinkConfig = LinkConfig {
-                dedup_window_us: dedup_us,
-                ..LinkConfig::default()
-            };
+            let mut link: LinkConfig = LinkConfig::default();
             link.outbound.allow_msg = filter_ids("allowmsgidout")?;
             link.outbound.block_msg = filter_ids("blockmsgidout")?;
             link.inbound.allow_msg = filter_ids("allowmsgidin")?;
@@ -590,6 +587,11 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                     .push(format!("{at}: key {key:?} is not supported, ignored"));
             }
         }
+    }
+    // mavlink-router drops duplicates whichever endpoint they come in on: the period holds for
+    // every endpoint, the TCP server's included, wherever [General] stands in the file.
+    for e in &mut config.endpoints {
+        e.link.dedup_window_us = dedup_us;
     }
     Ok(config)
 }
