@@ -55,7 +55,7 @@ over_budget=0
 # A target's corpus budget: at most this many inputs and bytes (README.md).
 budget() {
   case $1 in
-    router_config) echo "4000 $((2 * 1024 * 1024))" ;;
+    router_config) echo "4000 $((5 * 512 * 1024))" ;;
     *) echo "2500 $((1024 * 1024))" ;;
   esac
 }
