@@ -1,16 +1,33 @@
-//! The MAVLink dictionaries a command knows: the files given with `--dialect`, loaded through
-//! the generator's frontend at start, or else our own definitions, built into the binary.
+//! The MAVLink dictionaries a command knows: the standard dialects built into the binary
+//! (`--dialect ardupilotmega`), files (`--dialect my.xml`), or, without `--dialect`, the
+//! command's default built-in dialect. Built-in files load from memory through the same frontend
+//! as files on disk, with the same diagnostics.
 //!
 //! Nothing here uses generated bindings, so the CLI keeps working (and can regenerate
 //! `generated/`) even when the checked-in bindings do not compile.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use ferrolink_dialects::definitions;
 use ferrolink_dictionary::ir::Ir;
 use ferrolink_runtime::mavlink::MessageMeta;
 use ferrolink_traffic::{message_table, PayloadDecoder};
+
+/// What commands that read traffic decode with when no `--dialect` is given, as mavlogdump
+/// does.
+pub const DEFAULT: &str = "ardupilotmega";
+
+/// What the router checks and routes with when no `--dialect` is given: every standard
+/// dialect, so that the services' messages are routed by their targets, not broadcast.
+pub const ROUTER_DEFAULT: &str = "all";
+
+/// The folder the standard dialects seem to be in, in paths and diagnostics.
+const BUILT_IN: &str = "[built-in]";
+
+/// The folder our own definitions (and the services') seem to be in.
+const OWN_DIR: &str = "[built-in]/ferrolink";
 
 /// Our own MAVLink definitions (`definitions/mavlink/`), as built into the binary.
 const OWN: &[(&str, &str)] = &[
@@ -25,6 +42,12 @@ const OWN: &[(&str, &str)] = &[
     ),
 ];
 
+/// The microservices' messages and enums, as the runtime's state machines know them.
+const SERVICES: &[(&str, &str)] = &[(
+    "microservices.xml",
+    include_str!("../../definitions/runtime/microservices.xml"),
+)];
+
 /// Loaded dictionaries: the IR, for decoding, and the message table, for parsers and routers.
 #[derive(Debug)]
 pub struct Dialects {
@@ -34,14 +57,65 @@ pub struct Dialects {
     pub table: Arc<[MessageMeta]>,
 }
 
+/// Where `--dialect VALUE` points: a file, or else a built-in dialect of that name.
+fn resolve(value: &Path) -> Result<PathBuf, String> {
+    if value.is_file() {
+        return Ok(value.to_path_buf());
+    }
+    let name = value.to_str().filter(|v| !v.contains(['/', '\\']));
+    name.and_then(built_in).ok_or_else(|| {
+        format!(
+            "--dialect {}: no such file, and no built-in dialect has that name (built in: {})",
+            value.display(),
+            names().join(", ")
+        )
+    })
+}
+
+/// The path of built-in dialect `name`.
+fn built_in(name: &str) -> Option<PathBuf> {
+    definitions::find(name).map(|d| Path::new(BUILT_IN).join(d.file))
+}
+
+/// The built-in dialects' names.
+pub fn names() -> Vec<&'static str> {
+    definitions::ALL.iter().map(|d| d.name).collect()
+}
+
+/// Reads a file, from memory when it is in [`BUILT_IN`].
+fn read(path: &Path) -> std::io::Result<String> {
+    if !path.starts_with(BUILT_IN) {
+        return std::fs::read_to_string(path);
+    }
+    let text = match path.strip_prefix(OWN_DIR) {
+        Ok(file) => [OWN, SERVICES]
+            .concat()
+            .into_iter()
+            .find(|(n, _)| Path::new(n) == file)
+            .map(|(_, t)| t),
+        Err(_) => path
+            .strip_prefix(BUILT_IN)
+            .ok()
+            .and_then(Path::to_str)
+            .and_then(definitions::by_file)
+            .map(|d| d.text),
+    };
+    text.map(str::to_string)
+        .ok_or_else(|| std::io::ErrorKind::NotFound.into())
+}
+
 impl Dialects {
-    /// Loads `files`, or our own definitions when there are none. Warnings are printed to
-    /// stderr; errors (all of them, with file:line:col) make this fail.
-    pub fn load(files: &[PathBuf]) -> Result<Self, String> {
-        if files.is_empty() {
-            return Self::own();
-        }
-        let checked = ferrolink_dictionary::load(files).map_err(|failed| failed.to_string())?;
+    /// Loads the dialects `given` (files, or built-in names), or the built-in dialect `default`
+    /// when there are none. Warnings are printed to stderr; errors (all of them, with
+    /// file:line:col) make this fail.
+    pub fn load(given: &[PathBuf], default: &str) -> Result<Self, String> {
+        let inputs = if given.is_empty() {
+            vec![built_in(default).ok_or_else(|| format!("no built-in dialect {default}"))?]
+        } else {
+            given.iter().map(|v| resolve(v)).collect::<Result<_, _>>()?
+        };
+        let checked =
+            ferrolink_dictionary::load_with(&inputs, &[], &read).map_err(|f| f.to_string())?;
         for w in &checked.warnings {
             eprintln!("{w}\n");
         }
@@ -56,21 +130,16 @@ impl Dialects {
     /// The microservices' messages and enums (common.xml's), as the runtime's state machines
     /// know them: the names of MAV_CMD and MAV_RESULT values.
     pub fn services() -> Result<Self, String> {
-        Self::built_in(&[(
-            "microservices.xml",
-            include_str!("../../definitions/runtime/microservices.xml"),
-        )])
+        Self::built_in(SERVICES)
     }
 
     fn built_in(texts: &[(&str, &str)]) -> Result<Self, String> {
-        let dir = tempfile::tempdir().map_err(|e| format!("a temporary directory: {e}"))?;
-        let mut files = Vec::new();
-        for (name, text) in texts {
-            let path = dir.path().join(name);
-            std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-            files.push(path);
-        }
-        let checked = ferrolink_dictionary::load(&files).map_err(|failed| failed.to_string())?;
+        let files: Vec<PathBuf> = texts
+            .iter()
+            .map(|(n, _)| Path::new(OWN_DIR).join(n))
+            .collect();
+        let checked =
+            ferrolink_dictionary::load_with(&files, &[], &read).map_err(|f| f.to_string())?;
         Ok(Self::new(checked.ir))
     }
 

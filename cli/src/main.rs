@@ -52,6 +52,9 @@ enum Command {
         /// Also check that every message fits this carrier (`ndlcom`: ids below 256).
         #[arg(long, value_name = "CARRIER")]
         carrier: Vec<ferrolink_dictionary::Carrier>,
+        /// Put each module behind the cargo feature of its name (`#[cfg(feature = "common")]`).
+        #[arg(long)]
+        module_features: bool,
     },
     /// Report every problem in the dictionaries; exit 1 on errors.
     Check {
@@ -189,8 +192,10 @@ fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             serde_feature,
             serde_always,
             carrier,
+            module_features,
         } => {
             let mut config = ferrolink_codegen::Config::new();
+            config.module_features(module_features);
             config.serde(match (serde_feature, serde_always) {
                 (Some(f), _) => ferrolink_codegen::SerdeMode::Feature(f),
                 (None, true) => ferrolink_codegen::SerdeMode::Always,

@@ -23,11 +23,14 @@ use crate::dialect::Dialects;
 
 #[derive(Subcommand)]
 pub enum Command {
+    /// List the built-in dialects, one JSON line each: its name, and the messages and enums it
+    /// has with everything it includes. `--dialect NAME` takes these names.
+    Dialects,
     /// Route MAVLink between endpoints: every UDP peer and TCP client is a link of its own.
     Router {
-        /// Dialect XML whose messages the router knows (CRC_EXTRA, targets); repeatable.
-        /// Without it, our own definitions.
-        #[arg(long, value_name = "FILE.xml")]
+        /// A built-in dialect's name or a dialect XML file, whose messages the router knows
+        /// (CRC_EXTRA, targets); repeatable [default: all, every standard dialect].
+        #[arg(long, value_name = "NAME|FILE")]
         dialect: Vec<PathBuf>,
         /// Log every frame received (passed its CRC, or an unknown id) to this .tlog.
         #[arg(long, value_name = "FILE")]
@@ -83,8 +86,9 @@ pub enum Command {
     },
     /// Print a .tlog (or a raw capture) as JSON lines in pymavlink's to_dict() form.
     Dump {
-        /// Dialect XML to decode with; repeatable. Without it, our own definitions.
-        #[arg(long, value_name = "FILE.xml")]
+        /// A built-in dialect's name or a dialect XML file to decode with; repeatable
+        /// [default: ardupilotmega].
+        #[arg(long, value_name = "NAME|FILE")]
         dialect: Vec<PathBuf>,
         /// The file is raw link bytes, without timestamps.
         #[arg(long)]
@@ -99,8 +103,9 @@ pub enum Command {
     /// form or the envelope `{"sysid":..,"compid":..,"seq":..,"msg":{..}}` that `dump` prints,
     /// and prints each as an unsigned MAVLink 2 frame in hex.
     Encode {
-        /// Dialect XML to encode with; repeatable. Without it, our own definitions.
-        #[arg(long, value_name = "FILE.xml")]
+        /// A built-in dialect's name or a dialect XML file to encode with; repeatable
+        /// [default: ardupilotmega].
+        #[arg(long, value_name = "NAME|FILE")]
         dialect: Vec<PathBuf>,
     },
     /// Parameters of a vehicle: list, get, set.
@@ -122,8 +127,9 @@ pub enum Command {
     /// Per source: message rates and sequence loss of a .tlog; optionally a plot of message
     /// rates over time.
     Stats {
-        /// Dialect XML to name messages with; repeatable. Without it, our own definitions.
-        #[arg(long, value_name = "FILE.xml")]
+        /// A built-in dialect's name or a dialect XML file to name messages with; repeatable
+        /// [default: ardupilotmega].
+        #[arg(long, value_name = "NAME|FILE")]
         dialect: Vec<PathBuf>,
         /// Write a plot: a heat map of the rate of each message type of each source over time
         /// (log colour scale) above each source's sequence loss. FILE.svg, or FILE.png (needs a
@@ -280,7 +286,10 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 }
             }
             let all = [file.endpoints.clone(), given.clone()].concat();
-            let dialects = Dialects::load(&[file.dialects, dialect].concat())?;
+            let dialects = Dialects::load(
+                &[file.dialects, dialect].concat(),
+                crate::dialect::ROUTER_DEFAULT,
+            )?;
             let table = dialects.table.clone();
             let attached = zenoh_endpoints(zenoh, dialects)?;
             let config = router::Config {
@@ -304,6 +313,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Fleet { timeout, json, uri } => fleet(&uri, timeout, json),
+        Command::Dialects => dialects(),
         Command::Dump {
             dialect,
             raw,
@@ -417,9 +427,24 @@ fn read_config(path: &Path) -> Result<FileConfig<Extra>, String> {
 
 /// `ferrolink mavlink encode`: JSON lines in, unsigned MAVLink 2 frames in hex out, sent as
 /// system 255, component 190, the line number as the sequence, unless the envelope says otherwise.
+/// `ferrolink mavlink dialects`.
+fn dialects() -> Result<ExitCode, Box<dyn std::error::Error>> {
+    let mut out = io::stdout().lock();
+    for name in crate::dialect::names() {
+        let loaded = Dialects::load(&[], name)?;
+        let messages: usize = loaded.ir.modules.iter().map(|m| m.messages.len()).sum();
+        let (name, enums) = (serde_json::to_string(name)?, loaded.ir.enums.len());
+        writeln!(
+            out,
+            r#"{{"name": {name}, "messages": {messages}, "enums": {enums}}}"#
+        )?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 fn encode(dialect: &[PathBuf]) -> Result<ExitCode, Box<dyn std::error::Error>> {
     use ferrolink_traffic::FrameDefaults;
-    let dialects = Dialects::load(dialect)?;
+    let dialects = Dialects::load(dialect, crate::dialect::DEFAULT)?;
     let decoder = dialects.decoder();
     crate::encode_lines(|n, line| {
         let value = serde_json::from_str(line).map_err(|e| e.to_string())?;
@@ -439,7 +464,7 @@ fn dump(
     csv: Option<&Path>,
     file: &Path,
 ) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    let dialects = Dialects::load(dialect)?;
+    let dialects = Dialects::load(dialect, crate::dialect::DEFAULT)?;
     let decoder = dialects.decoder();
     let data = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
     let mut out = BufWriter::new(io::stdout().lock());

@@ -9,7 +9,7 @@ use ferrolink_io::mavlink::services::Remote;
 use ferrolink_runtime::crc::FTP_CRC32;
 use ferrolink_runtime::mavlink::service::ftp::EntryKind;
 
-use crate::mavlink_services::{find_target, open, progress_bar, Result, TargetArg};
+use crate::mavlink_services::{connect, progress_bar, Result, TargetArg};
 
 #[derive(Subcommand)]
 pub enum FtpCommand {
@@ -52,8 +52,7 @@ pub enum FtpCommand {
 pub fn ftp(command: FtpCommand) -> Result<ExitCode> {
     match command {
         FtpCommand::Ls { uri, path, target } => {
-            let mut link = open(&uri)?;
-            let peer = find_target(&mut link, &uri, target)?;
+            let (mut link, peer) = connect(&uri, &target)?;
             let entries = Remote::new(&mut link, peer)
                 .ftp_list(&path)
                 .map_err(|e| format!("ls {path}: {e}"))?;
@@ -81,8 +80,7 @@ pub fn ftp(command: FtpCommand) -> Result<ExitCode> {
             local,
             target,
         } => {
-            let mut link = open(&uri)?;
-            let peer = find_target(&mut link, &uri, target)?;
+            let (mut link, peer) = connect(&uri, &target)?;
             let bar = progress_bar("get");
             let data = Remote::new(&mut link, peer)
                 .ftp_get(&remote, |done, size| {
@@ -105,8 +103,7 @@ pub fn ftp(command: FtpCommand) -> Result<ExitCode> {
             target,
         } => {
             let data = std::fs::read(&local).map_err(|e| format!("{}: {e}", local.display()))?;
-            let mut link = open(&uri)?;
-            let peer = find_target(&mut link, &uri, target)?;
+            let (mut link, peer) = connect(&uri, &target)?;
             let mut vehicle = Remote::new(&mut link, peer);
             let bar = progress_bar("put");
             vehicle

@@ -25,12 +25,16 @@ use crate::dialect::Dialects;
 /// How long a client waits for the vehicle's first HEARTBEAT.
 const DISCOVERY: Duration = Duration::from_secs(10);
 
-/// The target, as `--target SYS/COMP`.
-#[derive(Args, Clone, Copy)]
+/// The target, as `--target SYS/COMP`, and the dialect the connection checks frames with.
+#[derive(Args, Clone)]
 pub struct TargetArg {
     /// The target system and component [default: the first vehicle heard, component 1].
     #[arg(long, value_name = "SYS/COMP", value_parser = parse_target)]
     pub(crate) target: Option<Address>,
+    /// A built-in dialect's name or a dialect XML file, whose messages the connection checks
+    /// and whose MAV_CMD names it knows; repeatable [default: ardupilotmega].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub(crate) dialect: Vec<PathBuf>,
 }
 
 fn parse_target(s: &str) -> std::result::Result<Address, String> {
@@ -175,8 +179,9 @@ pub enum Autopilot {
 /// `ferrolink mavlink vehicle`.
 #[derive(Args)]
 pub struct VehicleArgs {
-    /// Dialect XML whose other messages its connections check and ignore; repeatable.
-    #[arg(long, value_name = "FILE.xml")]
+    /// A built-in dialect's name or a dialect XML file, whose other messages its connections
+    /// check and ignore; repeatable [default: ardupilotmega].
+    #[arg(long, value_name = "NAME|FILE")]
     dialect: Vec<PathBuf>,
     /// Its system id.
     #[arg(long, default_value_t = 1)]
@@ -204,13 +209,37 @@ pub struct VehicleArgs {
 
 pub(crate) type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
-pub(crate) fn open(uri: &str) -> Result<Connection> {
-    Connection::open(uri, services::TABLE).map_err(|e| format!("{uri}: {e}").into())
+/// Opens `uri`, checking frames with the services' messages and the `--dialect` ones.
+pub(crate) fn open(uri: &str, target: &TargetArg) -> Result<Connection> {
+    let table = table_with(&target.dialect)?;
+    Connection::open(uri, table).map_err(|e| format!("{uri}: {e}").into())
+}
+
+/// The services' messages, then those of `dialect` (or the default dialect) that they lack.
+fn table_with(dialect: &[PathBuf]) -> Result<Vec<ferrolink_runtime::mavlink::MessageMeta>> {
+    let mut table = services::TABLE.to_vec();
+    for m in Dialects::load(dialect, crate::dialect::DEFAULT)?
+        .table
+        .iter()
+    {
+        if !table.iter().any(|t| t.id == m.id) {
+            table.push(*m);
+        }
+    }
+    table.sort_by_key(|m| m.id);
+    Ok(table)
+}
+
+/// Opens `uri` and finds the target on it.
+pub(crate) fn connect(uri: &str, target: &TargetArg) -> Result<(Connection, Peer)> {
+    let mut link = open(uri, target)?;
+    let peer = find_target(&mut link, uri, target)?;
+    Ok((link, peer))
 }
 
 /// The target: the one given (its autopilot from its HEARTBEAT if one comes), or the first
 /// vehicle heard.
-pub(crate) fn find_target(link: &mut Connection, uri: &str, target: TargetArg) -> Result<Peer> {
+pub(crate) fn find_target(link: &mut Connection, uri: &str, target: &TargetArg) -> Result<Peer> {
     let Some(address) = target.target else {
         return services::wait_for_vehicle(link, DISCOVERY)?.ok_or_else(|| {
             format!(
@@ -276,8 +305,7 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
             timeout,
             ext,
         } => {
-            let mut link = open(&uri)?;
-            let peer = find_target(&mut link, &uri, target)?;
+            let (mut link, peer) = connect(&uri, &target)?;
             let mut remote = param_remote(&mut link, peer, ext);
             let list = remote.fetch_params(timeout, |_| {})?;
             let mut out = std::io::stdout().lock();
@@ -313,8 +341,7 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
             ext,
         } => {
             check_name(&name)?;
-            let mut link = open(&uri)?;
-            let peer = find_target(&mut link, &uri, target)?;
+            let (mut link, peer) = connect(&uri, &target)?;
             let mut remote = param_remote(&mut link, peer, ext);
             match remote.read_param(&name)? {
                 Some(r) => {
@@ -334,8 +361,7 @@ pub fn param(command: ParamCommand) -> Result<ExitCode> {
         } => {
             check_name(&name)?;
             let ty = ty.map(|t| parse_type(&t, ext)).transpose()?;
-            let mut link = open(&uri)?;
-            let peer = find_target(&mut link, &uri, target)?;
+            let (mut link, peer) = connect(&uri, &target)?;
             let mut remote = param_remote(&mut link, peer, ext);
             // The type, if not given, and for PARAM_EXT_ACK (which has none) the index.
             let read = match (ty, ext) {
@@ -494,8 +520,7 @@ pub fn mission(command: MissionCommand) -> Result<ExitCode> {
                     .collect::<Vec<_>>()
                     .join("\n")
             })?;
-            let mut link = open(&uri)?;
-            let peer = find_target(&mut link, &uri, target)?;
+            let (mut link, peer) = connect(&uri, &target)?;
             let mut remote = Remote::new(&mut link, peer);
             let bar = progress_bar("upload");
             bar.set_length(items.len() as u64);
@@ -524,8 +549,7 @@ pub fn mission(command: MissionCommand) -> Result<ExitCode> {
             out,
             target,
         } => {
-            let mut link = open(&uri)?;
-            let peer = find_target(&mut link, &uri, target)?;
+            let (mut link, peer) = connect(&uri, &target)?;
             let mut remote = Remote::new(&mut link, peer);
             let bar = progress_bar("download");
             let items = remote.download_mission(kind.mav(), |done, all| {
@@ -560,11 +584,16 @@ pub fn mission(command: MissionCommand) -> Result<ExitCode> {
 }
 
 pub fn command(args: CommandArgs) -> Result<ExitCode> {
-    let names = Dialects::services()?;
+    // MAV_CMD and MAV_RESULT names: the dialect's, else the services' own.
+    let (names, own) = (
+        Dialects::load(&args.target.dialect, crate::dialect::DEFAULT)?,
+        Dialects::services()?,
+    );
     let id = match args.command.parse::<u16>() {
         Ok(id) => id,
         Err(_) => names
             .entry_value("MAV_CMD", &args.command)
+            .or_else(|| own.entry_value("MAV_CMD", &args.command))
             .and_then(|v| u16::try_from(v).ok())
             .ok_or_else(|| {
                 format!(
@@ -591,8 +620,8 @@ pub fn command(args: CommandArgs) -> Result<ExitCode> {
         (c.x, c.y, c.z) = (p[4], p[5], p[6] as f32);
         c
     };
-    let mut link = open(&args.uri)?;
-    let peer = match find_target(&mut link, &args.uri, args.target) {
+    let mut link = open(&args.uri, &args.target)?;
+    let peer = match find_target(&mut link, &args.uri, &args.target) {
         Ok(peer) => peer,
         Err(e) => {
             eprintln!("{e}");
@@ -612,8 +641,10 @@ pub fn command(args: CommandArgs) -> Result<ExitCode> {
         );
         return Ok(ExitCode::from(2));
     };
+    let raw = u64::from(ack.result.raw());
     let result = names
-        .entry_name("MAV_RESULT", u64::from(ack.result.raw()))
+        .entry_name("MAV_RESULT", raw)
+        .or_else(|| own.entry_name("MAV_RESULT", raw))
         .map_or_else(|| ack.result.raw().to_string(), str::to_string);
     println!("{}", command_line(id, Some(&result), &progress));
     Ok(if ack.result == MavResult::Accepted {
@@ -641,15 +672,7 @@ pub fn vehicle(args: VehicleArgs) -> Result<ExitCode> {
         )
         .into());
     }
-    let mut table = Dialects::services()?.table.to_vec();
-    if !args.dialect.is_empty() {
-        for m in Dialects::load(&args.dialect)?.table.iter() {
-            if !table.iter().any(|t| t.id == m.id) {
-                table.push(*m);
-            }
-        }
-        table.sort_by_key(|m| m.id);
-    }
+    let table = table_with(&args.dialect)?;
     let config = vehicle::Config {
         address: Address::new(args.sysid, args.compid),
         autopilot: match args.autopilot {

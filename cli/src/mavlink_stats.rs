@@ -105,7 +105,7 @@ pub fn run(dialect: &[PathBuf], plot: Option<&Path>, file: &Path) -> BoxResult<E
     let plot = plot
         .map(|path| PlotFormat::of(path).map(|format| (path, format)))
         .transpose()?;
-    let dialects = Dialects::load(dialect)?;
+    let dialects = Dialects::load(dialect, crate::dialect::DEFAULT)?;
     let data = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
     let mut sources: BTreeMap<SourceId, Source> = BTreeMap::new();
     let mut timeline = Timeline::default();

@@ -30,6 +30,7 @@ pub struct Config {
     file_name: Option<String>,
     serde: SerdeMode,
     carriers: Vec<Carrier>,
+    module_features: bool,
 }
 
 /// The result of [`Config::generate`]: file contents, nothing written yet.
@@ -124,6 +125,28 @@ impl Config {
         self
     }
 
+    /// Puts each dictionary file's module behind the cargo feature of its name (`common.xml`:
+    /// `#[cfg(feature = "common")] pub mod common;`), so that a crate holding many dialects
+    /// compiles only those enabled. The crate's features must enable what each one includes.
+    ///
+    /// ```
+    /// ferrolink_codegen::Config::new().module_features(true);
+    /// ```
+    pub fn module_features(&mut self, on: bool) -> &mut Self {
+        self.module_features = on;
+        self
+    }
+
+    /// The `#[cfg(feature = ..)]` of module `name`, when modules are behind features.
+    fn module_cfg(&self, name: &str) -> TokenStream {
+        if self.module_features {
+            let feature = name.trim_start_matches("r#");
+            quote!(#[cfg(feature = #feature)])
+        } else {
+            quote!()
+        }
+    }
+
     fn run(&self) -> Result<Checked, Failed> {
         crate::load_for(&self.inputs, &self.carriers)
     }
@@ -154,9 +177,11 @@ impl Config {
         }
         let files = match layout {
             Layout::Single => {
-                let mods = modules
-                    .iter()
-                    .map(|(name, tokens)| module(name, tokens, true));
+                let mods = modules.iter().map(|(name, tokens)| {
+                    let cfg = self.module_cfg(name);
+                    let inline = module(name, tokens, true);
+                    quote!(#cfg #inline)
+                });
                 let text = format::render(quote!(#( #mods )*));
                 vec![GeneratedFile {
                     name: self
@@ -169,7 +194,8 @@ impl Config {
             Layout::Modules => {
                 let decls = modules.iter().map(|(name, _)| {
                     let id = ident(name);
-                    quote!(pub mod #id;)
+                    let cfg = self.module_cfg(name);
+                    quote!(#cfg pub mod #id;)
                 });
                 let mut files = vec![GeneratedFile {
                     name: "mod.rs".into(),

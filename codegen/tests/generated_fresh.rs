@@ -56,6 +56,13 @@ fn generated_bindings_are_fresh() {
         &inputs("definitions/modrob", "toml"),
         "generated/src/modrob",
     ));
+    stale.extend(check(
+        Config::new()
+            .serde(SerdeMode::Feature("serde".into()))
+            .module_features(true),
+        &inputs("definitions/mavlink/standard", "xml"),
+        "dialects/src/generated",
+    ));
     // The microservices' messages live in the runtime, which names itself `ferrolink_runtime`.
     stale.extend(check(
         &mut Config::new(),
@@ -72,7 +79,7 @@ fn generated_bindings_are_fresh() {
         );
     }
     panic!(
-        "generated code is stale ({}); run:\n  cargo run -p ferrolink-cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde\n  cargo run -p ferrolink-cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet\n  cargo run -p ferrolink-cli -- generate definitions/modrob/*.toml --out generated/src/modrob\n  cargo run -p ferrolink-cli -- generate definitions/runtime/*.xml --out runtime/src/mavlink/service/generated",
+        "generated code is stale ({}); run:\n  cargo run -p ferrolink-cli -- generate definitions/mavlink/*.xml --out generated/src/mavlink --serde-feature serde\n  cargo run -p ferrolink-cli -- generate definitions/mavlink/standard/*.xml --out dialects/src/generated --serde-feature serde --module-features\n  cargo run -p ferrolink-cli -- generate definitions/tosnet/*.toml --out generated/src/tosnet\n  cargo run -p ferrolink-cli -- generate definitions/modrob/*.toml --out generated/src/modrob\n  cargo run -p ferrolink-cli -- generate definitions/runtime/*.xml --out runtime/src/mavlink/service/generated",
         stale.join(", ")
     );
 }

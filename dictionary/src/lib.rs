@@ -55,8 +55,29 @@ pub fn load(inputs: &[PathBuf]) -> Result<Checked, Failed> {
 
 /// Like [`load`], and also checks that every message fits each of `carriers`.
 pub fn load_for(inputs: &[PathBuf], carriers: &[check::Carrier]) -> Result<Checked, Failed> {
+    load_with(inputs, carriers, &frontend::read_file)
+}
+
+/// Like [`load_for`], with every file (includes too) read through `read`: dictionaries built
+/// into a program load from memory this way, with the same diagnostics.
+///
+/// ```
+/// let text = r#"<mavlink><messages><message id="1" name="PING">
+///   <field type="uint8_t" name="n"/></message></messages></mavlink>"#;
+/// let read = |path: &std::path::Path| match path.to_str() {
+///     Some("ping.xml") => Ok(text.to_string()),
+///     _ => Err(std::io::ErrorKind::NotFound.into()),
+/// };
+/// let checked = ferrolink_dictionary::load_with(&["ping.xml".into()], &[], &read).unwrap();
+/// assert_eq!(checked.ir.modules[0].messages[0].name.wire, "PING");
+/// ```
+pub fn load_with(
+    inputs: &[PathBuf],
+    carriers: &[check::Carrier],
+    read: frontend::Read<'_>,
+) -> Result<Checked, Failed> {
     let mut diags = diag::Diagnostics::default();
-    let loaded = frontend::load(inputs, &mut diags);
+    let loaded = frontend::load(inputs, read, &mut diags);
     let read = loaded.paths().map(PathBuf::from).collect();
     #[allow(unused_mut)]
     let mut ir = lower::mavlink::lower(loaded.mavlink);

@@ -18,18 +18,17 @@ fn deprecated(d: &Option<Deprecation>) -> TokenStream {
     } else {
         note.push_str("deprecated");
     }
+    // MAVLink's `since` is a date (`2018-11`), not the crate version rustc's `since` means.
+    if !d.since.is_empty() {
+        note.push_str(&format!(" since {}", d.since));
+    }
     if !d.replaced_by.is_empty() {
         note.push_str(&format!(", replaced by {}", d.replaced_by));
     }
     if !d.note.is_empty() {
         note.push_str(&format!(": {}", d.note));
     }
-    if d.since.is_empty() {
-        quote!(#[deprecated(note = #note)])
-    } else {
-        let since = &d.since;
-        quote!(#[deprecated(since = #since, note = #note)])
-    }
+    quote!(#[deprecated(note = #note)])
 }
 
 /// Whether and how generated types implement serde's traits (the pymavlink `to_dict()` form).

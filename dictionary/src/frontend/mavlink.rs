@@ -47,12 +47,13 @@ impl Loaded {
     }
 }
 
-/// Reads `inputs` and, recursively, everything they include.
-pub fn load(inputs: &[PathBuf], diags: &mut Diagnostics) -> Loaded {
+/// Reads `inputs` and, recursively, everything they include, each file through `read`.
+pub fn load(inputs: &[PathBuf], read: super::Read<'_>, diags: &mut Diagnostics) -> Loaded {
     let mut loader = Loader {
         loaded: Loaded::default(),
         by_path: HashMap::new(),
         stack: Vec::new(),
+        read,
     };
     for input in inputs {
         if let Some(i) = loader.load(input, None, diags) {
@@ -64,13 +65,14 @@ pub fn load(inputs: &[PathBuf], diags: &mut Diagnostics) -> Loaded {
     loader.loaded
 }
 
-struct Loader {
+struct Loader<'r> {
     loaded: Loaded,
+    read: super::Read<'r>,
     by_path: HashMap<PathBuf, usize>,
     stack: Vec<(PathBuf, Option<Span>)>,
 }
 
-impl Loader {
+impl Loader<'_> {
     fn load(&mut self, path: &Path, from: Option<&Span>, diags: &mut Diagnostics) -> Option<usize> {
         let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
         if let Some(pos) = self.stack.iter().position(|(p, _)| *p == key) {
@@ -92,7 +94,7 @@ impl Loader {
         if let Some(&i) = self.by_path.get(&key) {
             return Some(i);
         }
-        let text = match std::fs::read_to_string(path) {
+        let text = match (self.read)(path) {
             Ok(t) => t,
             Err(e) => {
                 match from {

@@ -56,13 +56,22 @@ impl Loaded {
     }
 }
 
+/// How a file's text is read: from disk ([`read_file`]), or from memory for dictionaries built
+/// into a program.
+pub type Read<'a> = &'a dyn Fn(&Path) -> std::io::Result<String>;
+
+/// Reads a file from disk.
+pub fn read_file(path: &Path) -> std::io::Result<String> {
+    std::fs::read_to_string(path)
+}
+
 /// Reads `inputs`: `.toml` files as TOML dictionaries, the rest as MAVLink XML (with their
-/// includes).
-pub fn load(inputs: &[PathBuf], diags: &mut Diagnostics) -> Loaded {
+/// includes), each file through `read`.
+pub fn load(inputs: &[PathBuf], read: Read<'_>, diags: &mut Diagnostics) -> Loaded {
     let is_toml = |p: &PathBuf| p.extension().is_some_and(|e| e == "toml");
     let xml: Vec<PathBuf> = inputs.iter().filter(|p| !is_toml(p)).cloned().collect();
     let mut loaded = Loaded {
-        mavlink: mavlink::load(&xml, diags),
+        mavlink: mavlink::load(&xml, read, diags),
         #[cfg(feature = "toml")]
         rings: Vec::new(),
         #[cfg(feature = "toml")]
@@ -71,20 +80,25 @@ pub fn load(inputs: &[PathBuf], diags: &mut Diagnostics) -> Loaded {
         robots: Vec::new(),
     };
     let toml: Vec<&PathBuf> = inputs.iter().filter(|p| is_toml(p)).collect();
-    load_toml_inputs(&mut loaded, &toml, diags);
+    load_toml_inputs(&mut loaded, &toml, read, diags);
     loaded
 }
 
 /// Reads the TOML dictionaries, and the module dictionaries their robots name.
 #[cfg(feature = "toml")]
-fn load_toml_inputs(loaded: &mut Loaded, inputs: &[&PathBuf], diags: &mut Diagnostics) {
+fn load_toml_inputs(
+    loaded: &mut Loaded,
+    inputs: &[&PathBuf],
+    read: Read<'_>,
+    diags: &mut Diagnostics,
+) {
     let mut seen = std::collections::HashSet::new();
     for &path in inputs {
         let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
         if !seen.insert(key.clone()) {
             continue;
         }
-        match load_toml(path, key, diags) {
+        match load_toml(path, key, read, diags) {
             Some(TomlFile::Ring(ring)) => loaded.rings.push(ring),
             Some(TomlFile::Module(module)) => loaded.modrob.push(module),
             Some(TomlFile::Robot(robot)) => loaded.robots.push(robot),
@@ -113,7 +127,7 @@ fn load_toml_inputs(loaded: &mut Loaded, inputs: &[&PathBuf], diags: &mut Diagno
             );
             continue;
         }
-        match load_toml(&path, path.clone(), diags) {
+        match load_toml(&path, path.clone(), read, diags) {
             Some(TomlFile::Module(module)) => loaded.modrob.push(module),
             Some(_) => {
                 diags.report(
@@ -133,7 +147,7 @@ fn load_toml_inputs(loaded: &mut Loaded, inputs: &[&PathBuf], diags: &mut Diagno
 
 /// Without the `toml` feature a TOML dictionary is an error, reported at its first byte.
 #[cfg(not(feature = "toml"))]
-fn load_toml_inputs(_: &mut Loaded, inputs: &[&PathBuf], diags: &mut Diagnostics) {
+fn load_toml_inputs(_: &mut Loaded, inputs: &[&PathBuf], _: Read<'_>, diags: &mut Diagnostics) {
     for path in inputs {
         let file = SourceFile::new(path.as_path(), String::new());
         diags.report(
@@ -150,8 +164,13 @@ fn load_toml_inputs(_: &mut Loaded, inputs: &[&PathBuf], diags: &mut Diagnostics
 
 /// Reads one TOML dictionary and hands it to the reader its top-level table names.
 #[cfg(feature = "toml")]
-fn load_toml(path: &Path, canonical: PathBuf, diags: &mut Diagnostics) -> Option<TomlFile> {
-    let text = match std::fs::read_to_string(path) {
+fn load_toml(
+    path: &Path,
+    canonical: PathBuf,
+    read: Read<'_>,
+    diags: &mut Diagnostics,
+) -> Option<TomlFile> {
+    let text = match read(path) {
         Ok(t) => t,
         Err(e) => {
             report_unreadable(path, &e, diags);
