@@ -395,8 +395,10 @@ class TcpServer(object):
 
 class Router(object):
     def __init__(self, binary, dialect, workdir, endpoints, extra=()):
-        self.cmd = ([binary, "mavlink", "router", "--dialect", dialect,
-                     "--run-for", str(RUN_FOR)] + list(extra) + list(endpoints))
+        # No dialect: the router's default, every standard dialect built into it.
+        dialect_args = ["--dialect", dialect] if dialect else []
+        self.cmd = ([binary, "mavlink", "router"] + dialect_args +
+                    ["--run-for", str(RUN_FOR)] + list(extra) + list(endpoints))
         self.err_path = os.path.join(workdir, "router.err")
         self.out_path = os.path.join(workdir, "router.out")
         self.ready = threading.Event()
@@ -488,8 +490,9 @@ class Harness(object):
         self.servers = []
         self.tag = 1000
 
-    def start_router(self, endpoints, extra=()):
-        self.router = Router(self.args.router, self.args.dialect, self.dir, endpoints, extra)
+    def start_router(self, endpoints, extra=(), dialect=True):
+        dialect = self.args.dialect if dialect else None
+        self.router = Router(self.args.router, dialect, self.dir, endpoints, extra)
         self.router.wait_ready()
         return self.router
 
@@ -695,6 +698,28 @@ def check_unknown_target(h):
     gcs.command_long(1, 1, control)
     h.deliver("COMMAND_LONG to 1/1 (sent after the one to 9/1)", is_command(control), [v1])
     h.deliver("COMMAND_LONG to 9/1", is_command(tag), [])
+
+
+def check_built_in_dialect(h):
+    """Without --dialect the router knows the standard dialects: the services' messages go
+    to their target only, not to every link as unchecked broadcasts."""
+    port, port2 = free_ports(2)
+    h.start_router([udpin(port), udpin(port2)], dialect=False)
+    gcs = h.mav("gcs", udp_peer(port), 255, 190, mavlink.MAV_TYPE_GCS)
+    v1 = h.mav("vehicle1", udp_peer(port), 1, 1)
+    v2 = h.mav("vehicle2", udp_peer(port2), 2, 1)
+    h.mesh([gcs, v1, v2])
+    for target, node in ((2, v2), (1, v1)):
+        tag = h.next_tag()
+        gcs.send(gcs.encoder.param_request_read_encode(target, 1, b"", tag))
+        h.deliver("PARAM_REQUEST_READ to %d/1" % target,
+                  lambda rx, tag=tag: rx.type == "PARAM_REQUEST_READ" and rx.msg.param_index == tag,
+                  [node])
+        tag = h.next_tag() % 256
+        gcs.send(gcs.encoder.mission_request_list_encode(target, 1, tag))
+        h.deliver("MISSION_REQUEST_LIST to %d/1" % target,
+                  lambda rx, tag=tag: rx.type == "MISSION_REQUEST_LIST" and rx.msg.mission_type == tag,
+                  [node])
 
 
 def check_unknown_id_and_signed(h):
@@ -1031,6 +1056,7 @@ CHECKS = [
     ("targeted", check_targeted),
     ("component", check_component),
     ("unknown_target", check_unknown_target),
+    ("built_in_dialect", check_built_in_dialect),
     ("unknown_id_and_signed", check_unknown_id_and_signed),
     ("garbage_teaches_nothing", check_garbage_teaches_nothing),
     ("two_gcs_one_port", check_two_gcs_one_port),
