@@ -13,16 +13,11 @@
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use ferrolink_generated::mavlink::minimal::{
+use ferrolink_dialects::common::{
     Attitude, CommandLong, Heartbeat, MavAutopilot, MavCmd, MavModeFlag, MavState, MavType, Message,
 };
 use ferrolink_io::mavlink::Connection;
 use ferrolink_runtime::mavlink::Dialect;
-
-/// `MAV_CMD_SET_MESSAGE_INTERVAL`, which our minimal dialect does not name.
-const SET_MESSAGE_INTERVAL: u16 = 511;
-/// `MAV_TYPE_ONBOARD_CONTROLLER`.
-const ONBOARD_CONTROLLER: u8 = 18;
 
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
@@ -51,7 +46,7 @@ fn run(uri: &str, duration: Duration, (sysid, compid): (u8, u8)) -> std::io::Res
     let mut vehicle = Connection::open(uri, Message::META)?;
     vehicle.set_ids(sysid, compid);
     let heartbeat = Heartbeat {
-        r#type: MavType::Unknown(ONBOARD_CONTROLLER),
+        r#type: MavType::OnboardController,
         autopilot: MavAutopilot::Invalid,
         base_mode: MavModeFlag(0),
         custom_mode: 0,
@@ -96,7 +91,7 @@ fn run(uri: &str, duration: Duration, (sysid, compid): (u8, u8)) -> std::io::Res
                     let command = CommandLong {
                         target_system: header.sysid,
                         target_component: header.compid,
-                        command: MavCmd::Unknown(SET_MESSAGE_INTERVAL),
+                        command: MavCmd::SetMessageInterval,
                         confirmation: 0,
                         param1: Attitude::ID as f32,
                         param2: 100_000.0,
