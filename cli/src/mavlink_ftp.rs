@@ -1,4 +1,5 @@
-//! `ferrolink mavlink ftp ls|get|put`: files on a vehicle over MAVLink FTP.
+//! `ferrolink mavlink ftp ls|get|put|mkdir|rmdir|rm|mv|crc`: files on a vehicle over MAVLink
+//! FTP.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -35,6 +36,55 @@ pub enum FtpCommand {
         #[command(flatten)]
         target: TargetArg,
     },
+    /// Create a directory on the vehicle. Prints nothing; exit 1 with the vehicle's error.
+    Mkdir {
+        /// The connection.
+        uri: String,
+        /// The directory to create.
+        path: String,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+    /// Remove an empty directory on the vehicle. Prints nothing; exit 1 with the vehicle's
+    /// error.
+    Rmdir {
+        /// The connection.
+        uri: String,
+        /// The directory to remove.
+        path: String,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+    /// Remove a file on the vehicle. Prints nothing; exit 1 with the vehicle's error.
+    Rm {
+        /// The connection.
+        uri: String,
+        /// The file to remove.
+        path: String,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+    /// Rename a file or directory on the vehicle. Prints nothing; exit 1 with the vehicle's
+    /// error.
+    Mv {
+        /// The connection.
+        uri: String,
+        /// Its path now.
+        from: String,
+        /// Its new path.
+        to: String,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+    /// Print the vehicle's CRC-32 of a file: `{"path": "...", "crc32": N}`.
+    Crc {
+        /// The connection.
+        uri: String,
+        /// The file.
+        path: String,
+        #[command(flatten)]
+        target: TargetArg,
+    },
     /// Write a file to the vehicle (created, or emptied first), then check the vehicle's
     /// CRC-32 of it against ours when the vehicle computes one.
     Put {
@@ -50,7 +100,57 @@ pub enum FtpCommand {
 }
 
 pub fn ftp(command: FtpCommand) -> Result<ExitCode> {
+    // The one-request operations print nothing on success and the server's error on failure.
+    let simple = |uri: &str,
+                  target: &TargetArg,
+                  what: String,
+                  op: &dyn Fn(&mut Remote) -> std::io::Result<()>|
+     -> Result<ExitCode> {
+        let (mut link, peer) = connect(uri, target)?;
+        match op(&mut Remote::new(&mut link, peer)) {
+            Ok(()) => Ok(ExitCode::SUCCESS),
+            Err(e) => {
+                eprintln!("{what}: {e}");
+                Ok(ExitCode::FAILURE)
+            }
+        }
+    };
     match command {
+        FtpCommand::Mkdir { uri, path, target } => {
+            simple(&uri, &target, format!("mkdir {path}"), &|r| {
+                r.ftp_mkdir(&path)
+            })
+        }
+        FtpCommand::Rmdir { uri, path, target } => {
+            simple(&uri, &target, format!("rmdir {path}"), &|r| {
+                r.ftp_rmdir(&path)
+            })
+        }
+        FtpCommand::Rm { uri, path, target } => simple(&uri, &target, format!("rm {path}"), &|r| {
+            r.ftp_remove(&path)
+        }),
+        FtpCommand::Mv {
+            uri,
+            from,
+            to,
+            target,
+        } => simple(&uri, &target, format!("mv {from} {to}"), &|r| {
+            r.ftp_rename(&from, &to)
+        }),
+        FtpCommand::Crc { uri, path, target } => {
+            let (mut link, peer) = connect(&uri, &target)?;
+            match Remote::new(&mut link, peer).ftp_crc32(&path) {
+                Ok(crc) => {
+                    let path = serde_json::to_string(&path)?;
+                    println!(r#"{{"path": {path}, "crc32": {crc}}}"#);
+                    Ok(ExitCode::SUCCESS)
+                }
+                Err(e) => {
+                    eprintln!("crc {path}: {e}");
+                    Ok(ExitCode::FAILURE)
+                }
+            }
+        }
         FtpCommand::Ls { uri, path, target } => {
             let (mut link, peer) = connect(&uri, &target)?;
             let entries = Remote::new(&mut link, peer)

@@ -135,6 +135,27 @@ pub enum MissionCommand {
         #[command(flatten)]
         target: TargetArg,
     },
+    /// Clear the mission, geofence or rally points on the vehicle. Exit 0 once it accepts, 1 when
+    /// it refuses or does not answer.
+    Clear {
+        /// The connection.
+        uri: String,
+        /// What to clear.
+        #[arg(long = "type", value_enum, default_value = "mission")]
+        kind: MissionKind,
+        #[command(flatten)]
+        target: TargetArg,
+    },
+    /// Make item SEQ the vehicle's current mission item. Exit 0 once it reports SEQ current, 1
+    /// otherwise.
+    SetCurrent {
+        /// The connection.
+        uri: String,
+        /// The item's sequence number.
+        seq: u16,
+        #[command(flatten)]
+        target: TargetArg,
+    },
     /// Download a mission, geofence or rally points as QGC WPL 110 (or .plan when --out ends
     /// so), to --out or stdout.
     Download {
@@ -539,6 +560,34 @@ pub fn mission(command: MissionCommand) -> Result<ExitCode> {
                 }
                 None => {
                     eprintln!("the vehicle stopped answering; it keeps its old items");
+                    Ok(ExitCode::FAILURE)
+                }
+            }
+        }
+        MissionCommand::Clear { uri, kind, target } => {
+            let (mut link, peer) = connect(&uri, &target)?;
+            match Remote::new(&mut link, peer).clear_mission(kind.mav())? {
+                Some(MavMissionResult::MavMissionAccepted) => Ok(ExitCode::SUCCESS),
+                Some(other) => {
+                    eprintln!("the vehicle refused to clear: {other:?}");
+                    Ok(ExitCode::FAILURE)
+                }
+                None => {
+                    eprintln!("the vehicle did not answer the clear");
+                    Ok(ExitCode::FAILURE)
+                }
+            }
+        }
+        MissionCommand::SetCurrent { uri, seq, target } => {
+            let (mut link, peer) = connect(&uri, &target)?;
+            match Remote::new(&mut link, peer).set_current_mission_item(seq)? {
+                Some(current) if current == seq => Ok(ExitCode::SUCCESS),
+                Some(current) => {
+                    eprintln!("the vehicle's current item is {current}, not {seq}");
+                    Ok(ExitCode::FAILURE)
+                }
+                None => {
+                    eprintln!("the vehicle did not answer");
                     Ok(ExitCode::FAILURE)
                 }
             }

@@ -30,7 +30,8 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
                      it back item for item; our CLI downloads the same mission.
   our_mission        ``ferrolink mavlink mission upload`` (a WPL file) to a vehicle built from
                      MAVSDK's MissionRawServer, which reports the mission item for item;
-                     ``mission download`` gets it back.
+                     ``mission download`` gets it back; ``mission set-current`` moves
+                     MAVSDK's current item, and ``mission clear`` empties its mission.
   lossy_params       both ``param list`` directions again through a UDP relay that loses 20 %
                      of datagrams, repeats 5 % and delays some past later ones (seeded):
                      MAVSDK lists our vehicle, and we list MAVSDK's ParamServer, every value
@@ -41,7 +42,9 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
                      a directory created and removed; each checked on disk.
   our_ftp            ``ferrolink mavlink ftp ls|get|put`` against MAVSDK's FtpServer plugin:
                      the listing, a 300 kB file read (MAVSDK bursts the whole file unpaced)
-                     and one written, byte for byte on disk, our CRC-32 agreeing with MAVSDK's.
+                     and one written, byte for byte on disk, our CRC-32 agreeing with MAVSDK's;
+                     then ``mkdir``, ``mv``, ``crc``, ``rm`` and ``rmdir``, each checked on
+                     disk, and the server's errors for a missing file and a full directory.
   lossy_ftp          through the relay: our get and put of 200 kB against MAVSDK's FtpServer
                      and against our vehicle at 20 % loss, and MAVSDK's burst download from
                      our vehicle at 5 %.
@@ -73,6 +76,7 @@ import subprocess
 import sys
 import threading
 import time
+import zlib
 
 sys.dont_write_bytecode = True  # keep the source tree clean
 from ports import free_port  # noqa: E402
@@ -732,9 +736,19 @@ async def check_our_mission(args):
         if rc != 0:
             raise CheckFailed("mission download exited %d: %s" % (rc, err))
         compare_items(spec, read_wpl(out), "our download from MAVSDK's server")
+        rc, out, err = await ferrolink(args, "mission", "set-current", uri, "3")
+        if rc != 0:
+            raise CheckFailed("mission set-current 3 exited %d: %s" % (rc, err))
+        rc, out, err = await ferrolink(args, "mission", "clear", uri)
+        if rc != 0:
+            raise CheckFailed("mission clear exited %d: %s" % (rc, err))
+        rc, out, err = await ferrolink(args, "mission", "download", uri)
+        if rc != 0 or read_wpl(out):
+            raise CheckFailed("after the clear, the download exited %d with %r" % (rc, out))
     finally:
         await close_vehicle(mavsdk, tasks)
-    return "%d items up to MAVSDK's server (%s) and back" % (len(spec), incoming[-1][0])
+    return ("%d items up to MAVSDK's server (%s) and back; set-current and clear taken"
+            % (len(spec), incoming[-1][0]))
 
 
 async def check_lossy_mission(args):
@@ -945,12 +959,48 @@ async def check_our_ftp(args):
     port = free_port()
     mavsdk, keep = await mavsdk_ftp_vehicle("udpout://%s:%d" % (HOST, port), root)
     try:
-        get_s, put_s = await our_ftp_round_trip(args, "udpin://%s:%d" % (HOST, port), root,
-                                                data, "clean")
+        uri = "udpin://%s:%d" % (HOST, port)
+        get_s, put_s = await our_ftp_round_trip(args, uri, root, data, "clean")
+        await our_ftp_file_operations(args, uri, root)
     finally:
         await mavsdk.__aexit__(None, None, None)
     # `put` exits 0 only when MAVSDK's CRC-32 of the file is ours.
-    return "ls, get 300 kB in %.2f s, put 150 kB in %.2f s (CRC-32 agreed)" % (get_s, put_s)
+    return ("ls, get 300 kB in %.2f s, put 150 kB in %.2f s (CRC-32 agreed); "
+            "mkdir, mv, crc, rm, rmdir" % (get_s, put_s))
+
+
+async def our_ftp_file_operations(args, uri, root):
+    """mkdir, mv, crc, rm and rmdir through our CLI, each checked in `root`, the server's
+    directory; a missing file and a directory that is not empty are refused, exit 1."""
+    async def ok(*cmd):
+        rc, out, err = await ferrolink(args, "ftp", *cmd)
+        if rc != 0:
+            raise CheckFailed("ftp %s exited %d: %s" % (" ".join(cmd), rc, err))
+        return out
+    payload = bytes(range(256)) * 9
+    with open(os.path.join(root, "ops.bin"), "wb") as f:
+        f.write(payload)
+    await ok("mkdir", uri, "/made")
+    if not os.path.isdir(os.path.join(root, "made")):
+        raise CheckFailed("ftp mkdir /made: no directory on disk")
+    await ok("mv", uri, "/ops.bin", "/made/moved.bin")
+    if read_file(os.path.join(root, "made", "moved.bin")) != payload:
+        raise CheckFailed("ftp mv: /made/moved.bin is not the file")
+    line = json.loads(await ok("crc", uri, "/made/moved.bin"))
+    # MAVLink FTP's CRC-32: zlib's polynomial from 0, without the final inversion.
+    want = zlib.crc32(payload, 0xFFFFFFFF) ^ 0xFFFFFFFF
+    if line != {"path": "/made/moved.bin", "crc32": want}:
+        raise CheckFailed("ftp crc printed %r, want crc32 %d" % (line, want))
+    rc, out, err = await ferrolink(args, "ftp", "rmdir", uri, "/made")
+    if rc != 1 or out or not err.strip():
+        raise CheckFailed("ftp rmdir of a full directory: exit %d, %r %r" % (rc, out, err))
+    await ok("rm", uri, "/made/moved.bin")
+    await ok("rmdir", uri, "/made")
+    if os.path.exists(os.path.join(root, "made")):
+        raise CheckFailed("ftp rm and rmdir left /made on disk")
+    rc, out, err = await ferrolink(args, "ftp", "rm", uri, "/nosuch.bin")
+    if rc != 1 or out or not err.strip():
+        raise CheckFailed("ftp rm of a missing file: exit %d, %r %r" % (rc, out, err))
 
 
 async def check_lossy_ftp(args):

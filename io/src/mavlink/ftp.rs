@@ -353,8 +353,35 @@ impl Remote<'_> {
 
     /// Removes file `path` on the target.
     pub fn ftp_remove(&mut self, path: &str) -> io::Result<()> {
+        let now = self.now_us();
+        self.ftp_simple(|c| c.remove(now, path))
+    }
+
+    /// Creates directory `path` on the target.
+    pub fn ftp_mkdir(&mut self, path: &str) -> io::Result<()> {
+        let now = self.now_us();
+        self.ftp_simple(|c| c.create_dir(now, path))
+    }
+
+    /// Removes directory `path` (empty) on the target.
+    pub fn ftp_rmdir(&mut self, path: &str) -> io::Result<()> {
+        let now = self.now_us();
+        self.ftp_simple(|c| c.remove_dir(now, path))
+    }
+
+    /// Renames `from` to `to` on the target.
+    pub fn ftp_rename(&mut self, from: &str, to: &str) -> io::Result<()> {
+        let now = self.now_us();
+        self.ftp_simple(|c| c.rename(now, from, to))
+    }
+
+    /// Runs an operation of one request and its answer, started by `start`.
+    fn ftp_simple(
+        &mut self,
+        start: impl FnOnce(&mut ftp::Client) -> Result<(), ferrolink_runtime::mavlink::service::Busy>,
+    ) -> io::Result<()> {
         let mut client = self.ftp_client();
-        let _ = client.remove(self.now_us(), path);
+        let _ = start(&mut client);
         self.run_ftp(&mut client, &mut [], |_| {}, |_, _| {})
             .map(drop)
     }

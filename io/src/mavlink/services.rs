@@ -134,6 +134,33 @@ impl ParamList {
     pub fn missing(&self) -> usize {
         self.values.iter().filter(|v| v.is_none()).count()
     }
+
+    /// The parameter called `name` (exactly as the target spells it), as pymavlink's
+    /// `master.params[name]` finds it.
+    ///
+    /// ```
+    /// use ferrolink_io::mavlink::services::ParamList;
+    /// use ferrolink_runtime::mavlink::service::param::{Received, Value};
+    ///
+    /// let rate = Received {
+    ///     name: "SR0_POSITION".into(),
+    ///     index: 0,
+    ///     count: 1,
+    ///     value: Some(Value::F32(4.0)),
+    ///     custom: None,
+    /// };
+    /// let list = ParamList { count: 1, values: vec![Some(rate)], hash: None };
+    /// assert_eq!(list.get("SR0_POSITION").and_then(|p| p.value), Some(Value::F32(4.0)));
+    /// assert!(list.get("SR0_ATTITUDE").is_none());
+    /// ```
+    pub fn get(&self, name: &str) -> Option<&Received> {
+        self.iter().find(|r| r.name.as_str() == name)
+    }
+
+    /// Every value that came, in index order.
+    pub fn iter(&self) -> impl Iterator<Item = &Received> {
+        self.values.iter().flatten()
+    }
 }
 
 /// A target system seen through a connection: commands and parameters, blocking.
@@ -442,6 +469,28 @@ impl<'c> Remote<'c> {
             }
         }
         Ok(result)
+    }
+
+    /// Clears every item of `kind` on the target (`All`: every kind); the target's answer,
+    /// `None` when it did not answer.
+    pub fn clear_mission(&mut self, kind: MavMissionType) -> io::Result<Option<MavMissionResult>> {
+        let mut client = mission::Client::new(self.mission_config, self.target.address);
+        let _ = client.clear(kind);
+        match self.run_mission(&mut client, &mut Items::default(), |_, _| {})? {
+            mission::Event::Cleared(result) => Ok(result),
+            _ => Ok(None),
+        }
+    }
+
+    /// Makes `seq` the target's current mission item; the current item it then reports,
+    /// `None` when it did not answer.
+    pub fn set_current_mission_item(&mut self, seq: u16) -> io::Result<Option<u16>> {
+        let mut client = mission::Client::new(self.mission_config, self.target.address);
+        let _ = client.set_current(seq);
+        match self.run_mission(&mut client, &mut Items::default(), |_, _| {})? {
+            mission::Event::CurrentSet(current) => Ok(current),
+            _ => Ok(None),
+        }
     }
 
     /// Downloads the target's `kind`; `None` when it stopped answering every attempt.
