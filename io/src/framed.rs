@@ -174,20 +174,121 @@ struct Peer<D> {
     deframer: D,
 }
 
+/// The peers of an endpoint, each with its writer and a parser of its own: what [`Framed`]
+/// keeps, and what a program that takes an endpoint's events on the endpoint's own threads
+/// keeps (the shared MAVLink connection).
+pub struct PeerTable<D> {
+    peers: HashMap<PeerId, Peer<D>>,
+    new: Box<dyn FnMut() -> D + Send>,
+}
+
+impl<D> std::fmt::Debug for PeerTable<D> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PeerTable")
+            .field("peers", &self.peers.len())
+            .finish_non_exhaustive()
+    }
+}
+
+impl<D: Deframer> PeerTable<D> {
+    /// No peers yet; each that comes gets a parser from `new`.
+    pub fn new(new: impl FnMut() -> D + Send + 'static) -> Self {
+        Self {
+            peers: HashMap::new(),
+            new: Box::new(new),
+        }
+    }
+
+    /// How many peers are connected now.
+    pub fn len(&self) -> usize {
+        self.peers.len()
+    }
+
+    /// Whether no peer is connected.
+    pub fn is_empty(&self) -> bool {
+        self.peers.is_empty()
+    }
+
+    /// Every peer's parser, to change a setting.
+    pub fn deframers_mut(&mut self) -> impl Iterator<Item = &mut D> {
+        self.peers.values_mut().map(|p| &mut p.deframer)
+    }
+
+    /// Every peer's counters.
+    pub fn stats(&self) -> impl Iterator<Item = (PeerId, &D::Stats)> {
+        self.peers.iter().map(|(&id, p)| (id, p.deframer.stats()))
+    }
+
+    /// The writer of peer `peer`, while it is connected.
+    pub fn sender(&self, peer: PeerId) -> Option<&Sender> {
+        self.peers.get(&peer).map(|p| &p.sender)
+    }
+
+    /// Takes in one event: a new peer gets its own parser; its bytes go through that parser,
+    /// and `on_frame` gets every frame they complete; when it pauses, its parser judges what it
+    /// holds (frames behind a false start come out); a peer that goes away loses the frame it
+    /// was sending (counted by its parser) and is forgotten.
+    pub fn handle(&mut self, event: Event<'_>, mut on_frame: impl FnMut(PeerId, D::Frame<'_>)) {
+        match event {
+            Event::Up { peer, sender, .. } => {
+                let deframer = (self.new)();
+                self.peers.insert(peer, Peer { sender, deframer });
+            }
+            Event::Rx { peer, bytes, .. } => {
+                if let Some(p) = self.peers.get_mut(&peer) {
+                    p.deframer.feed_all(bytes, |frame| on_frame(peer, frame));
+                }
+            }
+            Event::Quiet { peer } => {
+                if let Some(p) = self.peers.get_mut(&peer) {
+                    p.deframer.drain_stalled(|frame| on_frame(peer, frame));
+                }
+            }
+            Event::Down { peer, .. } => {
+                if let Some(mut p) = self.peers.remove(&peer) {
+                    p.deframer.finish();
+                }
+            }
+        }
+    }
+
+    /// Sends `bytes` (a whole encoded frame) to every peer. Fails if there is no peer (`name`
+    /// says which endpoint), or every write failed.
+    pub fn send_all(&self, bytes: &[u8], name: &dyn std::fmt::Display) -> io::Result<()> {
+        if self.peers.is_empty() {
+            return Err(io::Error::new(
+                io::ErrorKind::NotConnected,
+                format!("{name}: no peer yet"),
+            ));
+        }
+        let mut last_error = None;
+        let mut sent = 0;
+        for peer in self.peers.values() {
+            match peer.sender.send(bytes) {
+                Ok(()) => sent += 1,
+                Err(e) => last_error = Some(e),
+            }
+        }
+        match (sent, last_error) {
+            (0, Some(e)) => Err(e),
+            _ => Ok(()),
+        }
+    }
+}
+
 /// An endpoint whose peers' bytes become frames (see the [module documentation](self)).
 pub struct Framed<D, E = Blocking> {
     endpoint: Endpoint,
     handle: link::Handle,
     events: E,
-    peers: HashMap<PeerId, Peer<D>>,
-    new: Box<dyn FnMut() -> D + Send>,
+    peers: PeerTable<D>,
 }
 
 impl<D, E> std::fmt::Debug for Framed<D, E> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Framed")
             .field("endpoint", &self.endpoint.to_string())
-            .field("peers", &self.peers.len())
+            .field("peers", &self.peers.peers.len())
             .finish_non_exhaustive()
     }
 }
@@ -202,8 +303,7 @@ impl<D: Deframer + 'static, E: Events> Framed<D, E> {
             endpoint: endpoint.clone(),
             handle,
             events,
-            peers: HashMap::new(),
-            new: Box::new(new),
+            peers: PeerTable::new(new),
         })
     }
 
@@ -224,40 +324,35 @@ impl<D: Deframer + 'static, E: Events> Framed<D, E> {
 
     /// Every peer's parser, to change a setting.
     pub fn deframers_mut(&mut self) -> impl Iterator<Item = &mut D> {
-        self.peers.values_mut().map(|p| &mut p.deframer)
+        self.peers.deframers_mut()
     }
 
     /// Every peer's counters.
     pub fn stats(&self) -> impl Iterator<Item = (PeerId, &D::Stats)> {
-        self.peers.iter().map(|(&id, p)| (id, p.deframer.stats()))
+        self.peers.stats()
     }
 
-    /// Takes in one event: a new peer gets its own parser; its bytes go through that parser,
-    /// and `on_frame` gets every frame they complete; when it pauses, its parser judges what it
-    /// holds (frames behind a false start come out); a peer that goes away loses the frame it
-    /// was sending (counted by its parser) and is forgotten.
-    pub fn handle(&mut self, event: Owned, mut on_frame: impl FnMut(PeerId, D::Frame<'_>)) {
-        match event {
-            Owned::Up(peer, sender) => {
-                let deframer = (self.new)();
-                self.peers.insert(peer, Peer { sender, deframer });
-            }
-            Owned::Rx(peer, bytes) => {
-                if let Some(p) = self.peers.get_mut(&peer) {
-                    p.deframer.feed_all(&bytes, |frame| on_frame(peer, frame));
-                }
-            }
-            Owned::Quiet(peer) => {
-                if let Some(p) = self.peers.get_mut(&peer) {
-                    p.deframer.drain_stalled(|frame| on_frame(peer, frame));
-                }
-            }
-            Owned::Down(peer) => {
-                if let Some(mut p) = self.peers.remove(&peer) {
-                    p.deframer.finish();
-                }
-            }
-        }
+    /// Takes in one event, as [`PeerTable::handle`] does.
+    pub fn handle(&mut self, event: Owned, on_frame: impl FnMut(PeerId, D::Frame<'_>)) {
+        let event = match event {
+            Owned::Up(peer, sender) => Event::Up {
+                endpoint: 0,
+                peer,
+                name: String::new(),
+                sender,
+            },
+            Owned::Rx(peer, ref bytes) => Event::Rx {
+                peer,
+                bytes,
+                at: std::time::Instant::now(),
+            },
+            Owned::Quiet(peer) => Event::Quiet { peer },
+            Owned::Down(peer) => Event::Down {
+                peer,
+                why: String::new(),
+            },
+        };
+        self.peers.handle(event, on_frame);
     }
 
     /// Takes in everything that arrived, without waiting. An error once the endpoint stopped.
@@ -281,24 +376,7 @@ impl<D: Deframer + 'static, E: Events> Framed<D, E> {
     /// Sends `bytes` (a whole encoded frame) to every peer. Fails if there is no peer, or every
     /// write failed.
     pub fn send(&self, bytes: &[u8]) -> io::Result<()> {
-        if self.peers.is_empty() {
-            return Err(io::Error::new(
-                io::ErrorKind::NotConnected,
-                format!("{}: no peer yet", self.endpoint),
-            ));
-        }
-        let mut last_error = None;
-        let mut sent = 0;
-        for peer in self.peers.values() {
-            match peer.sender.send(bytes) {
-                Ok(()) => sent += 1,
-                Err(e) => last_error = Some(e),
-            }
-        }
-        match (sent, last_error) {
-            (0, Some(e)) => Err(e),
-            _ => Ok(()),
-        }
+        self.peers.send_all(bytes, &self.endpoint)
     }
 
     /// The error for an endpoint whose threads stopped.

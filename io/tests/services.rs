@@ -43,17 +43,27 @@ fn vehicle_with(
     stop: &Arc<AtomicBool>,
 ) -> (u16, std::thread::JoinHandle<()>) {
     let port = free_port();
+    let endpoint = format!("udpin://127.0.0.1:{port}");
+    (port, vehicle_at(params, Some(root), endpoint, stop))
+}
+
+/// A PX4 vehicle with `params` on `endpoint`, on a thread until `stop`.
+fn vehicle_at(
+    params: Vec<Param>,
+    root: Option<&std::path::Path>,
+    endpoint: String,
+    stop: &Arc<AtomicBool>,
+) -> std::thread::JoinHandle<()> {
     let config = vehicle::Config {
         address: Address::new(1, 1),
         autopilot: MavAutopilot::Px4,
         kind: MavType::Quadrotor,
         params,
         table: services::TABLE.into(),
-        ftp_root: Some(root.to_path_buf()),
+        ftp_root: root.map(std::path::Path::to_path_buf),
     };
     let stop = stop.clone();
-    let endpoint = format!("udpin://127.0.0.1:{port}");
-    let thread = std::thread::spawn(move || {
+    std::thread::spawn(move || {
         vehicle::run(
             &config,
             &[endpoint],
@@ -62,8 +72,7 @@ fn vehicle_with(
             || {},
         )
         .expect("the vehicle runs");
-    });
-    (port, thread)
+    })
 }
 
 /// A connection to the vehicle on `port`, and the vehicle as found.
@@ -74,6 +83,75 @@ fn connect(port: u16) -> (Connection, services::Peer) {
         .unwrap()
         .expect("the vehicle");
     (link, peer)
+}
+
+/// On a shared connection a 1,000-parameter fetch runs beside a telemetry subscriber, and
+/// costs it no frame: every ATTITUDE sent at 200 Hz meanwhile arrives.
+#[test]
+fn telemetry_keeps_flowing_during_a_parameter_fetch() {
+    use ferrolink_dialects::common::{Attitude, Message as Common};
+    use ferrolink_io::mavlink::{Filter, SharedConnection};
+    use ferrolink_runtime::mavlink::Dialect;
+
+    let link = SharedConnection::open("udpin://127.0.0.1:0", Common::META).unwrap();
+    let port = link.local_addr().unwrap().port();
+    let attitude = link.subscribe(Filter::all().ids(&[Attitude::ID]));
+    let stop = Arc::new(AtomicBool::new(false));
+    let params = (0..1000)
+        .map(|i| param(&format!("P{i}"), Value::I32(i)))
+        .collect();
+    let vehicle = vehicle_at(params, None, format!("udpout://127.0.0.1:{port}"), &stop);
+    // The vehicle's telemetry, from the same system, on a socket of its own.
+    let telemetry =
+        SharedConnection::open(&format!("udpout://127.0.0.1:{port}"), Common::META).unwrap();
+    telemetry.set_ids(1, 1);
+    let sender = {
+        let (telemetry, stop) = (telemetry.clone(), stop.clone());
+        std::thread::spawn(move || {
+            let mut sent = 0u32;
+            while !stop.load(Ordering::Relaxed) {
+                let a = Attitude {
+                    time_boot_ms: sent,
+                    ..Default::default()
+                };
+                if telemetry.send(&a).is_ok() {
+                    sent += 1;
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            sent
+        })
+    };
+    let peer = services::wait_for_vehicle_on(&link, Duration::from_secs(10))
+        .unwrap()
+        .expect("the vehicle");
+    let mut remote = Remote::on(&link, peer);
+    let list = remote
+        .fetch_params(Duration::from_secs(30), |_| {})
+        .unwrap();
+    assert_eq!((list.count, list.missing()), (1000, 0));
+    assert_eq!(
+        list.get("P999").and_then(|p| p.value),
+        Some(Value::I32(999))
+    );
+    std::thread::sleep(Duration::from_millis(200));
+    stop.store(true, Ordering::Relaxed);
+    let sent = sender.join().unwrap();
+    vehicle.join().unwrap();
+    let mut got = Vec::new();
+    while let Some(f) = attitude.recv(Duration::from_millis(300)).unwrap() {
+        let Ok(Common::Attitude(a)) = f.decode::<Common>() else {
+            panic!("an ATTITUDE")
+        };
+        got.push(a.time_boot_ms);
+    }
+    assert!(sent > 20, "the fetch took {sent} telemetry periods");
+    assert_eq!(
+        got,
+        (0..sent).collect::<Vec<_>>(),
+        "every ATTITUDE, in order"
+    );
+    assert_eq!((attitude.dropped(), remote.dropped()), (0, 0));
 }
 
 #[test]

@@ -17,7 +17,8 @@
 //! ```
 //!
 //! [`Connection::messages`] does the same with decoded messages of a dialect, and
-//! [`Connection::recv`] waits at most a given time.
+//! [`Connection::recv`] waits at most a given time. A [`SharedConnection`] is the same
+//! connection for many threads and tasks at once: see [`shared`].
 
 pub mod config;
 pub mod ftp;
@@ -25,26 +26,26 @@ pub mod missionfile;
 pub mod paramfile;
 pub mod router;
 pub mod services;
+pub mod shared;
 pub mod tlog;
 pub mod vehicle;
 
-use std::collections::VecDeque;
 use std::io;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use ferrolink_runtime::mavlink::parser::{ParsedFrame, Parser};
-use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
+use ferrolink_runtime::mavlink::parser::ParsedFrame;
+use ferrolink_runtime::mavlink::signing::SecretKey;
 use ferrolink_runtime::mavlink::{
-    find_meta, v1, v2, AnyFrame, Dialect, Header, Message, MessageMeta, UnknownMessageId, Version,
+    v2, AnyFrame, Dialect, Header, Message, MessageMeta, UnknownMessageId, Version,
 };
 
 #[cfg(feature = "tokio")]
 pub use crate::framed::Async;
-use crate::framed::Framed;
 pub use crate::framed::{Blocking, Events};
+pub use crate::link::PeerId;
 use crate::uri::{Form, Grammar, Scheme};
+pub use shared::{Counts, Filter, OwnHeartbeat, Route, SharedConnection, Subscription, Unsigned};
 
 /// Baud rate of a serial URI without one.
 pub const DEFAULT_BAUD: u32 = 57_600;
@@ -89,16 +90,26 @@ pub fn unix_us() -> u64 {
         .map_or(0, |d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
 }
 
-/// A received frame, owned.
+/// A received frame, owned (cloning it shares the bytes).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Frame {
-    bytes: Vec<u8>,
+    bytes: Arc<[u8]>,
     checked: bool,
+    peer: PeerId,
 }
 
 impl Frame {
+    /// `frame` as received from `peer`.
+    pub(crate) fn new(frame: &ParsedFrame<'_>, peer: PeerId) -> Self {
+        Frame {
+            bytes: frame.as_bytes().into(),
+            checked: frame.is_checked(),
+            peer,
+        }
+    }
+
     fn view(&self) -> AnyFrame<&[u8]> {
-        match AnyFrame::new_checked(self.bytes.as_slice()) {
+        match AnyFrame::new_checked(&self.bytes[..]) {
             Ok(frame) => frame,
             // Only frames the parser accepted are stored, so their length is right.
             Err(_) => AnyFrame::V2(v2::Frame::new_unchecked(&[0; v2::MIN_FRAME_LEN][..])),
@@ -135,18 +146,14 @@ impl Frame {
         self.view().is_signed()
     }
 
+    /// The peer it came from, to answer it alone ([`SharedConnection::send_to`]).
+    pub fn peer(&self) -> PeerId {
+        self.peer
+    }
+
     /// Decodes it as a message of dialect `D`.
     pub fn decode<D: Dialect>(&self) -> Result<D, UnknownMessageId> {
         self.view().decode()
-    }
-}
-
-impl From<&ParsedFrame<'_>> for Frame {
-    fn from(frame: &ParsedFrame<'_>) -> Self {
-        Frame {
-            bytes: frame.as_bytes().to_vec(),
-            checked: frame.is_checked(),
-        }
     }
 }
 
@@ -154,148 +161,111 @@ impl From<&ParsedFrame<'_>> for Frame {
 #[cfg(feature = "tokio")]
 pub type AsyncConnection = Connection<Async>;
 
-/// A MAVLink connection on one endpoint URI (see [`crate::link`] for the forms): blocking, or
-/// async as `AsyncConnection` (feature `tokio`).
+/// A MAVLink connection on one endpoint URI (see [`crate::link`] for the forms), read by one
+/// owner: blocking, or async as `AsyncConnection` (feature `tokio`). It is a
+/// [`SharedConnection`] with one subscription to every frame; [`Connection::shared`] hands out
+/// the shared connection, for senders on other threads and for more subscribers.
 ///
 /// Frames are received from every peer of the endpoint (each with its own stream parser, so
 /// interleaved peers never corrupt each other) and sent to every peer: on `udpin`, that is every
 /// address heard from in the last 10 s. Sends use the connection's own system and component ids
-/// and sequence numbers counting up, as MAVLink 2 (or 1) frames, signed if a key is set.
+/// and sequence numbers counting up, as MAVLink 2 (or 1) frames, signed if a key is set (and
+/// then signed frames received are checked).
 pub struct Connection<E = Blocking> {
-    framed: Framed<Parser<{ v2::MAX_FRAME_LEN }, Arc<[MessageMeta]>>, E>,
-    table: Arc<[MessageMeta]>,
-    /// Read by the parsers of peers yet to come.
-    pass_unknown: Arc<AtomicBool>,
-    queue: VecDeque<Frame>,
-    sysid: u8,
-    compid: u8,
-    seq: u8,
-    version: Version,
-    signer: Option<Signer>,
+    shared: SharedConnection,
+    frames: Subscription,
+    face: std::marker::PhantomData<fn() -> E>,
 }
 
 impl<E> std::fmt::Debug for Connection<E> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Connection")
-            .field("framed", &self.framed)
-            .field("sysid", &self.sysid)
-            .field("compid", &self.compid)
+            .field("shared", &self.shared)
             .finish_non_exhaustive()
     }
 }
 
-impl<E: Events> Connection<E> {
+/// How many frames a [`Connection`] holds for its owner; past that it loses the newest,
+/// counted in [`Connection::dropped`].
+const CONNECTION_QUEUE: usize = 65_536;
+
+impl<E> Connection<E> {
     fn start(uri: &str, table: Arc<[MessageMeta]>) -> io::Result<Self> {
-        let endpoint = ENDPOINTS
-            .endpoint(uri)
-            .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
-        let pass_unknown = Arc::new(AtomicBool::new(false));
-        let (pass, shared) = (pass_unknown.clone(), table.clone());
-        let framed = Framed::open(&endpoint, move || {
-            Parser::new(shared.clone()).pass_unknown_ids(pass.load(Ordering::Relaxed))
-        })?;
+        let shared = SharedConnection::open(uri, table)?;
+        let frames = shared.subscribe(Filter::all().capacity(CONNECTION_QUEUE));
         Ok(Self {
-            framed,
-            table,
-            pass_unknown,
-            queue: VecDeque::new(),
-            sysid: 255,
-            compid: 190,
-            seq: 0,
-            version: Version::V2,
-            signer: None,
+            shared,
+            frames,
+            face: std::marker::PhantomData,
         })
+    }
+
+    /// The shared connection underneath: clone it into other threads to send, or subscribe
+    /// to it.
+    pub fn shared(&self) -> &SharedConnection {
+        &self.shared
     }
 
     /// The bound local address, for `udpin`, `udpout` and `tcpin` URIs.
     pub fn local_addr(&self) -> Option<std::net::SocketAddr> {
-        self.framed.local_addr()
+        self.shared.local_addr()
     }
 
     /// The system and component ids frames are sent from (255/190, a ground station, by
     /// default).
     pub fn set_ids(&mut self, sysid: u8, compid: u8) {
-        (self.sysid, self.compid) = (sysid, compid);
+        self.shared.set_ids(sysid, compid);
+    }
+
+    /// The system and component ids frames are sent from.
+    pub fn ids(&self) -> (u8, u8) {
+        self.shared.ids()
     }
 
     /// Send MAVLink 1 or 2 (the default) frames.
     pub fn set_version(&mut self, version: Version) {
-        self.version = version;
+        self.shared.set_version(version);
     }
 
-    /// Signs every frame sent with `key` on `link_id`, with timestamps from the system clock.
+    /// Signs every frame sent with `key` on `link_id`, with timestamps from the system clock,
+    /// and checks signed frames received ([`SharedConnection::set_signing`]).
     pub fn set_signing(&mut self, key: SecretKey, link_id: u8) {
-        self.signer = Some(Signer::new(key, link_id));
+        self.shared.set_signing(key, link_id);
     }
 
     /// Hands out frames with ids the table lacks too, unchecked (off by default).
     pub fn set_pass_unknown_ids(&mut self, pass: bool) {
-        self.pass_unknown.store(pass, Ordering::Relaxed);
-        for parser in self.framed.deframers_mut() {
-            parser.set_pass_unknown_ids(pass);
-        }
+        self.shared.set_pass_unknown_ids(pass);
     }
 
     /// How many peers are connected now.
     pub fn peers(&self) -> usize {
-        self.framed.peers()
+        self.shared.peers()
     }
 
-    /// Takes in what arrived without waiting (peers appearing and going too).
-    pub fn poll(&mut self) {
-        let queue = &mut self.queue;
-        // A stopped endpoint shows at the next `recv`.
-        let _ = self
-            .framed
-            .poll(|_, frame| queue.push_back(Frame::from(&frame)));
+    /// How many frames were lost because the owner did not read them in time.
+    pub fn dropped(&self) -> u64 {
+        self.frames.dropped()
     }
+
+    /// Nothing to do: frames are taken in as they arrive, on the endpoint's threads. Kept for
+    /// programs that poll.
+    pub fn poll(&mut self) {}
 
     /// Sends `message` to every peer, from this connection's ids, with the next sequence
     /// number. Fails if no peer is connected or every write failed.
     pub fn send<M: Message>(&mut self, message: &M) -> io::Result<()> {
-        let mut payload = [0u8; ferrolink_runtime::mavlink::MAX_PAYLOAD_LEN];
-        let len = message.encode(&mut payload);
-        self.send_raw(M::ID, M::CRC_EXTRA, &payload[..len])
+        self.shared.send(message)
     }
 
     /// Sends any message of dialect `D`, as [`Connection::send`] does.
     pub fn send_dialect<D: Dialect>(&mut self, message: &D) -> io::Result<()> {
-        let mut payload = [0u8; ferrolink_runtime::mavlink::MAX_PAYLOAD_LEN];
-        let len = message.encode(&mut payload);
-        let meta = message.meta();
-        self.send_raw(meta.id, meta.crc_extra, &payload[..len])
+        self.shared.send_dialect(message)
     }
 
     /// Sends a payload (whole, not truncated) of message `id` with `crc_extra`.
     pub fn send_raw(&mut self, id: u32, crc_extra: u8, payload: &[u8]) -> io::Result<()> {
-        self.poll();
-        let header = Header::new(self.seq, self.sysid, self.compid);
-        let mut out = [0u8; v2::MAX_FRAME_LEN];
-        let encoded = match (self.version, &mut self.signer) {
-            (Version::V1, _) => {
-                let min =
-                    find_meta(&self.table, id).map_or(payload.len(), |m| usize::from(m.min_len));
-                v1::encode_raw(
-                    header,
-                    id,
-                    crc_extra,
-                    &payload[..min.min(payload.len())],
-                    &mut out,
-                )
-            }
-            (Version::V2, Some(signer)) => signer.encode_raw(
-                timestamp_from_unix_micros(unix_us()),
-                header,
-                id,
-                crc_extra,
-                payload,
-                &mut out,
-            ),
-            (Version::V2, None) => v2::encode_raw(header, id, crc_extra, payload, &mut out),
-        };
-        let n = encoded.map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
-        self.seq = self.seq.wrapping_add(1);
-        self.framed.send(&out[..n])
+        self.shared.send_raw(id, crc_extra, payload)
     }
 }
 
@@ -309,20 +279,7 @@ impl Connection<Blocking> {
 
     /// Waits up to `timeout` for a frame. `Ok(None)` when none came in time.
     pub fn recv(&mut self, timeout: Duration) -> io::Result<Option<Frame>> {
-        let deadline = Instant::now() + timeout;
-        loop {
-            if let Some(frame) = self.queue.pop_front() {
-                return Ok(Some(frame));
-            }
-            let left = deadline.saturating_duration_since(Instant::now());
-            let queue = &mut self.queue;
-            if !self
-                .framed
-                .wait(Some(left), |_, frame| queue.push_back(Frame::from(&frame)))?
-            {
-                return Ok(None);
-            }
-        }
+        self.frames.recv(timeout)
     }
 
     /// Waits up to `timeout` for a message of dialect `D`, skipping frames `D` lacks.
@@ -342,14 +299,7 @@ impl Connection<Blocking> {
     /// Waits for the next frame, however long it takes. An error only when the connection
     /// stopped.
     pub fn recv_blocking(&mut self) -> io::Result<Frame> {
-        loop {
-            if let Some(frame) = self.queue.pop_front() {
-                return Ok(frame);
-            }
-            let queue = &mut self.queue;
-            self.framed
-                .wait(None, |_, frame| queue.push_back(Frame::from(&frame)))?;
-        }
+        self.frames.recv_blocking()
     }
 
     /// Every frame as it arrives: the iterator blocks for the next one, through quiet spells,
@@ -433,15 +383,7 @@ impl Connection<Async> {
 
     /// Waits for a frame (wrap it in a timeout as you need).
     pub async fn recv(&mut self) -> io::Result<Frame> {
-        loop {
-            if let Some(frame) = self.queue.pop_front() {
-                return Ok(frame);
-            }
-            let queue = &mut self.queue;
-            self.framed
-                .next(|_, frame| queue.push_back(Frame::from(&frame)))
-                .await?;
-        }
+        self.frames.recv_async().await
     }
 
     /// Waits for a message of dialect `D`, skipping frames `D` lacks.

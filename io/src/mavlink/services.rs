@@ -32,7 +32,7 @@ use ferrolink_runtime::mavlink::service::peers::Peers;
 use ferrolink_runtime::mavlink::service::Address;
 use ferrolink_runtime::mavlink::{Dialect, MessageMeta};
 
-use super::Connection;
+use super::{Connection, Filter, SharedConnection, Subscription};
 
 /// The messages the services use: a table to open a [`Connection`] with when nothing else is
 /// needed.
@@ -42,7 +42,25 @@ pub const TABLE: &[MessageMeta] = Message::META;
 /// `MAV_AUTOPILOT_INVALID`, not a ground station or a camera), answering with our own
 /// heartbeats meanwhile. The target is that system's component 1, as ground stations take it.
 pub fn wait_for_vehicle(link: &mut Connection, timeout: Duration) -> io::Result<Option<Peer>> {
-    wait_for(link, timeout, |peers| peers.first_vehicle())
+    let shared = link.shared().clone();
+    wait_for(
+        &shared,
+        |t| link.recv(t),
+        timeout,
+        |peers| peers.first_vehicle(),
+    )
+}
+
+/// [`wait_for_vehicle`] on a shared connection, through a subscription of its own to the
+/// frames that come from now on.
+pub fn wait_for_vehicle_on(link: &SharedConnection, timeout: Duration) -> io::Result<Option<Peer>> {
+    let heartbeats = link.subscribe(Filter::all().ids(&[Heartbeat::ID]));
+    wait_for(
+        link,
+        |t| heartbeats.recv(t),
+        timeout,
+        |peers| peers.first_vehicle(),
+    )
 }
 
 /// Waits up to `timeout` for a HEARTBEAT from `system` (any component), answering with our
@@ -52,13 +70,20 @@ pub fn wait_for_system(
     system: u8,
     timeout: Duration,
 ) -> io::Result<Option<Peer>> {
-    wait_for(link, timeout, |peers| {
-        peers.iter().find(|p| p.address.system == system).copied()
-    })
+    let shared = link.shared().clone();
+    wait_for(
+        &shared,
+        |t| link.recv(t),
+        timeout,
+        |peers| peers.iter().find(|p| p.address.system == system).copied(),
+    )
 }
 
+/// Reads frames with `recv` until `pick` finds a peer among those heard, answering with our
+/// heartbeat on `link` meanwhile.
 fn wait_for(
-    link: &mut Connection,
+    link: &SharedConnection,
+    mut recv: impl FnMut(Duration) -> io::Result<Option<super::Frame>>,
     timeout: Duration,
     pick: impl Fn(&Peers<16>) -> Option<Peer>,
 ) -> io::Result<Option<Peer>> {
@@ -76,7 +101,7 @@ fn wait_for(
             return Ok(None);
         }
         let left = deadline.saturating_duration_since(now).min(beat - now);
-        let Some(frame) = link.recv(left)? else {
+        let Some(frame) = recv(left)? else {
             continue;
         };
         if let Ok(msg) = frame.decode::<Message>() {
@@ -91,7 +116,7 @@ fn wait_for(
 }
 
 /// Our HEARTBEAT as a ground station. A peer that is not there yet is no error.
-fn send_heartbeat(link: &mut Connection) {
+fn send_heartbeat(link: &SharedConnection) {
     let hb = Message::Heartbeat(Heartbeat {
         r#type: MavType::Gcs,
         autopilot: MavAutopilot::Invalid,
@@ -163,10 +188,16 @@ impl ParamList {
     }
 }
 
-/// A target system seen through a connection: commands and parameters, blocking.
+/// A target system seen through a connection: commands, parameters, missions and files,
+/// blocking.
+///
+/// It reads through a subscription of its own to the services' messages from the target's
+/// system, so on a [`SharedConnection`] everything else keeps flowing to the other
+/// subscribers while an operation runs: a parameter fetch costs no telemetry frame.
 #[derive(Debug)]
 pub struct Remote<'c> {
-    link: &'c mut Connection,
+    link: &'c SharedConnection,
+    replies: Subscription,
     target: Peer,
     start: Instant,
     beat: Instant,
@@ -192,9 +223,18 @@ pub struct Remote<'c> {
 impl<'c> Remote<'c> {
     /// `target` through `link`, which sends as 255/190 unless set otherwise.
     pub fn new(link: &'c mut Connection, target: Peer) -> Self {
-        let own = Address::new(link.sysid, link.compid);
+        Self::on(link.shared(), target)
+    }
+
+    /// `target` through a shared connection, beside its other subscribers and senders.
+    pub fn on(link: &'c SharedConnection, target: Peer) -> Self {
+        let (sysid, compid) = link.ids();
+        let own = Address::new(sysid, compid);
+        let ids: Vec<u32> = TABLE.iter().map(|m| m.id).collect();
+        let replies = link.subscribe(Filter::all().ids(&ids).system(target.address.system));
         Self {
             link,
+            replies,
             target,
             start: Instant::now(),
             beat: Instant::now(),
@@ -219,13 +259,15 @@ impl<'c> Remote<'c> {
         self.start.elapsed().as_micros() as u64
     }
 
-    /// The next service message from anyone, or `None` at `until_us`. Our heartbeat goes out
-    /// once a second meanwhile.
+    /// The next service message from the target's system, or `None` at `until_us`. Our
+    /// heartbeat goes out once a second meanwhile, unless the connection sends its own.
     pub(super) fn next(&mut self, until_us: u64) -> io::Result<Option<(Address, Message)>> {
         loop {
             let now = Instant::now();
             if now >= self.beat {
-                send_heartbeat(self.link);
+                if !self.link.is_beating() {
+                    send_heartbeat(self.link);
+                }
                 self.beat = now + Duration::from_secs(1);
             }
             let now_us = self.now_us();
@@ -233,7 +275,7 @@ impl<'c> Remote<'c> {
                 return Ok(None);
             }
             let wait = Duration::from_micros(until_us - now_us).min(self.beat - now);
-            if let Some(frame) = self.link.recv(wait)? {
+            if let Some(frame) = self.replies.recv(wait)? {
                 if let Ok(msg) = frame.decode::<Message>() {
                     let h = frame.header();
                     return Ok(Some((Address::new(h.sysid, h.compid), msg)));
@@ -244,6 +286,12 @@ impl<'c> Remote<'c> {
 
     pub(super) fn send(&mut self, msg: &Message) -> io::Result<()> {
         self.link.send_dialect(msg)
+    }
+
+    /// How many replies this client lost to a full queue (it reads them as fast as they come,
+    /// so none, unless the program stalls it).
+    pub fn dropped(&self) -> u64 {
+        self.replies.dropped()
     }
 
     /// Sends `command` and waits for its final answer; `progress` sees each `IN_PROGRESS`.

@@ -512,16 +512,14 @@ pub enum MavFrame {
     ///
     /// `MAV_FRAME_GLOBAL_INT` = 5
     #[deprecated(
-        since = "2024-03",
-        note = "superseded, replaced by MAV_FRAME_GLOBAL: Use MAV_FRAME_GLOBAL in COMMAND_INT (and elsewhere) as a synonymous replacement."
+        note = "superseded since 2024-03, replaced by MAV_FRAME_GLOBAL: Use MAV_FRAME_GLOBAL in COMMAND_INT (and elsewhere) as a synonymous replacement."
     )]
     GlobalInt,
     /// Global (WGS84) coordinate frame (scaled) + altitude relative to the home position.
     ///
     /// `MAV_FRAME_GLOBAL_RELATIVE_ALT_INT` = 6
     #[deprecated(
-        since = "2024-03",
-        note = "superseded, replaced by MAV_FRAME_GLOBAL_RELATIVE_ALT: Use MAV_FRAME_GLOBAL_RELATIVE_ALT in COMMAND_INT (and elsewhere) as a synonymous replacement."
+        note = "superseded since 2024-03, replaced by MAV_FRAME_GLOBAL_RELATIVE_ALT: Use MAV_FRAME_GLOBAL_RELATIVE_ALT in COMMAND_INT (and elsewhere) as a synonymous replacement."
     )]
     GlobalRelativeAltInt,
     /// NED local tangent frame (x: North, y: East, z: Down) with origin that travels with the vehicle.
@@ -532,12 +530,12 @@ pub enum MavFrame {
     /// when used with velocity/acceleration values.
     ///
     /// `MAV_FRAME_BODY_NED` = 8
-    #[deprecated(since = "2019-08", note = "superseded, replaced by MAV_FRAME_BODY_FRD")]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_FRAME_BODY_FRD")]
     BodyNed,
     /// This is the same as MAV_FRAME_BODY_FRD.
     ///
     /// `MAV_FRAME_BODY_OFFSET_NED` = 9
-    #[deprecated(since = "2019-08", note = "superseded, replaced by MAV_FRAME_BODY_FRD")]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_FRAME_BODY_FRD")]
     BodyOffsetNed,
     /// Global (WGS84) coordinate frame with AGL altitude (altitude at ground level).
     ///
@@ -547,8 +545,7 @@ pub enum MavFrame {
     ///
     /// `MAV_FRAME_GLOBAL_TERRAIN_ALT_INT` = 11
     #[deprecated(
-        since = "2024-03",
-        note = "superseded, replaced by MAV_FRAME_GLOBAL_TERRAIN_ALT: Use MAV_FRAME_GLOBAL_TERRAIN_ALT in COMMAND_INT (and elsewhere) as a synonymous replacement."
+        note = "superseded since 2024-03, replaced by MAV_FRAME_GLOBAL_TERRAIN_ALT: Use MAV_FRAME_GLOBAL_TERRAIN_ALT in COMMAND_INT (and elsewhere) as a synonymous replacement."
     )]
     GlobalTerrainAltInt,
     /// FRD local frame aligned to the vehicle's attitude (x: Forward, y: Right, z: Down) with an origin
@@ -559,61 +556,43 @@ pub enum MavFrame {
     /// MAV_FRAME_BODY_FLU - Body fixed frame of reference, Z-up (x: Forward, y: Left, z: Up).
     ///
     /// `MAV_FRAME_RESERVED_13` = 13
-    #[deprecated(since = "2019-04", note = "deprecated")]
+    #[deprecated(note = "deprecated since 2019-04")]
     Reserved13,
     /// MAV_FRAME_MOCAP_NED - Odometry local coordinate frame of data given by a motion capture system,
     /// Z-down (x: North, y: East, z: Down).
     ///
     /// `MAV_FRAME_RESERVED_14` = 14
-    #[deprecated(
-        since = "2019-04",
-        note = "deprecated, replaced by MAV_FRAME_LOCAL_FRD"
-    )]
+    #[deprecated(note = "deprecated since 2019-04, replaced by MAV_FRAME_LOCAL_FRD")]
     Reserved14,
     /// MAV_FRAME_MOCAP_ENU - Odometry local coordinate frame of data given by a motion capture system,
     /// Z-up (x: East, y: North, z: Up).
     ///
     /// `MAV_FRAME_RESERVED_15` = 15
-    #[deprecated(
-        since = "2019-04",
-        note = "deprecated, replaced by MAV_FRAME_LOCAL_FLU"
-    )]
+    #[deprecated(note = "deprecated since 2019-04, replaced by MAV_FRAME_LOCAL_FLU")]
     Reserved15,
     /// MAV_FRAME_VISION_NED - Odometry local coordinate frame of data given by a vision estimation
     /// system, Z-down (x: North, y: East, z: Down).
     ///
     /// `MAV_FRAME_RESERVED_16` = 16
-    #[deprecated(
-        since = "2019-04",
-        note = "deprecated, replaced by MAV_FRAME_LOCAL_FRD"
-    )]
+    #[deprecated(note = "deprecated since 2019-04, replaced by MAV_FRAME_LOCAL_FRD")]
     Reserved16,
     /// MAV_FRAME_VISION_ENU - Odometry local coordinate frame of data given by a vision estimation
     /// system, Z-up (x: East, y: North, z: Up).
     ///
     /// `MAV_FRAME_RESERVED_17` = 17
-    #[deprecated(
-        since = "2019-04",
-        note = "deprecated, replaced by MAV_FRAME_LOCAL_FLU"
-    )]
+    #[deprecated(note = "deprecated since 2019-04, replaced by MAV_FRAME_LOCAL_FLU")]
     Reserved17,
     /// MAV_FRAME_ESTIM_NED - Odometry local coordinate frame of data given by an estimator running
     /// onboard the vehicle, Z-down (x: North, y: East, z: Down).
     ///
     /// `MAV_FRAME_RESERVED_18` = 18
-    #[deprecated(
-        since = "2019-04",
-        note = "deprecated, replaced by MAV_FRAME_LOCAL_FRD"
-    )]
+    #[deprecated(note = "deprecated since 2019-04, replaced by MAV_FRAME_LOCAL_FRD")]
     Reserved18,
     /// MAV_FRAME_ESTIM_ENU - Odometry local coordinate frame of data given by an estimator running
     /// onboard the vehicle, Z-up (x: East, y: North, z: Up).
     ///
     /// `MAV_FRAME_RESERVED_19` = 19
-    #[deprecated(
-        since = "2019-04",
-        note = "deprecated, replaced by MAV_FRAME_LOCAL_FLU"
-    )]
+    #[deprecated(note = "deprecated since 2019-04, replaced by MAV_FRAME_LOCAL_FLU")]
     Reserved19,
     /// FRD local tangent frame (x: Forward, y: Right, z: Down) with origin fixed relative to earth. The
     /// forward axis is aligned to the front of the vehicle in the horizontal plane.
@@ -737,10 +716,7 @@ pub enum MavCmd {
     /// sensors such as cameras.
     ///
     /// `MAV_CMD_NAV_ROI` = 80
-    #[deprecated(
-        since = "2018-01",
-        note = "superseded, replaced by `MAV_CMD_DO_SET_ROI_*`"
-    )]
+    #[deprecated(note = "superseded since 2018-01, replaced by `MAV_CMD_DO_SET_ROI_*`")]
     NavRoi,
     /// Control autonomous path planning on the MAV.
     ///
@@ -828,7 +804,7 @@ pub enum MavCmd {
     /// enumeration value of the parameter.
     ///
     /// `MAV_CMD_DO_SET_PARAMETER` = 180
-    #[deprecated(since = "2024-04", note = "deprecated, replaced by PARAM_SET")]
+    #[deprecated(note = "deprecated since 2024-04, replaced by PARAM_SET")]
     DoSetParameter,
     /// Set a relay to a condition. The current value may optionally be reported using RELAY_STATUS.
     ///
@@ -946,10 +922,7 @@ pub enum MavCmd {
     /// sensors such as cameras.
     ///
     /// `MAV_CMD_DO_SET_ROI` = 201
-    #[deprecated(
-        since = "2018-01",
-        note = "superseded, replaced by `MAV_CMD_DO_SET_ROI_*`"
-    )]
+    #[deprecated(note = "superseded since 2018-01, replaced by `MAV_CMD_DO_SET_ROI_*`")]
     DoSetRoi,
     /// Configure digital camera. This is a fallback message for systems that have not yet implemented
     /// PARAM_EXT_XXX messages and camera definition files (see
@@ -967,16 +940,14 @@ pub enum MavCmd {
     ///
     /// `MAV_CMD_DO_MOUNT_CONFIGURE` = 204
     #[deprecated(
-        since = "2020-01",
-        note = "superseded, replaced by MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE: The message can still be used to communicate with legacy gimbals implementing it."
+        note = "superseded since 2020-01, replaced by MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE: The message can still be used to communicate with legacy gimbals implementing it."
     )]
     DoMountConfigure,
     /// Mission command to control a camera or antenna mount
     ///
     /// `MAV_CMD_DO_MOUNT_CONTROL` = 205
     #[deprecated(
-        since = "2020-01",
-        note = "superseded, replaced by MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW: This message is ambiguous and inconsistent. It has been superseded by MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW and `MAV_CMD_DO_SET_ROI_*` variants. The message can still be used to communicate with legacy gimbals implementing it."
+        note = "superseded since 2020-01, replaced by MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW: This message is ambiguous and inconsistent. It has been superseded by MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW and `MAV_CMD_DO_SET_ROI_*` variants. The message can still be used to communicate with legacy gimbals implementing it."
     )]
     DoMountControl,
     /// Mission command to set camera trigger distance for this flight. The camera is triggered each time
@@ -1026,8 +997,7 @@ pub enum MavCmd {
     ///
     /// `MAV_CMD_DO_MOUNT_CONTROL_QUAT` = 220
     #[deprecated(
-        since = "2020-01",
-        note = "superseded, replaced by MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW"
+        note = "superseded since 2020-01, replaced by MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW"
     )]
     DoMountControlQuat,
     /// set id of master controller
@@ -1154,10 +1124,7 @@ pub enum MavCmd {
     /// HOME_POSITION message.
     ///
     /// `MAV_CMD_GET_HOME_POSITION` = 410
-    #[deprecated(
-        since = "2022-04",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2022-04, replaced by MAV_CMD_REQUEST_MESSAGE")]
     GetHomePosition,
     /// Inject artificial failure for testing purposes. Note that autopilots should implement an
     /// additional protection before accepting this command such as a specific param setting.
@@ -1187,44 +1154,29 @@ pub enum MavCmd {
     /// emit their capabilities in an PROTOCOL_VERSION message
     ///
     /// `MAV_CMD_REQUEST_PROTOCOL_VERSION` = 519
-    #[deprecated(
-        since = "2025-11",
-        note = "deprecated, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "deprecated since 2025-11, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestProtocolVersion,
     /// Request autopilot capabilities. The receiver should ACK the command and then emit its
     /// capabilities in an AUTOPILOT_VERSION message
     ///
     /// `MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES` = 520
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestAutopilotCapabilities,
     /// Request camera information (CAMERA_INFORMATION).
     ///
     /// `MAV_CMD_REQUEST_CAMERA_INFORMATION` = 521
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestCameraInformation,
     /// Request camera settings (CAMERA_SETTINGS).
     ///
     /// `MAV_CMD_REQUEST_CAMERA_SETTINGS` = 522
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestCameraSettings,
     /// Request storage information (STORAGE_INFORMATION). Use the command's target_component to target a
     /// specific component's storage.
     ///
     /// `MAV_CMD_REQUEST_STORAGE_INFORMATION` = 525
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestStorageInformation,
     /// Format a storage medium. Once format is complete, a STORAGE_INFORMATION message is sent. Use the
     /// command's target_component to target a specific component's storage.
@@ -1234,18 +1186,12 @@ pub enum MavCmd {
     /// Request camera capture status (CAMERA_CAPTURE_STATUS)
     ///
     /// `MAV_CMD_REQUEST_CAMERA_CAPTURE_STATUS` = 527
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestCameraCaptureStatus,
     /// Request flight information (FLIGHT_INFORMATION)
     ///
     /// `MAV_CMD_REQUEST_FLIGHT_INFORMATION` = 528
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestFlightInformation,
     /// Reset all camera settings to Factory Default
     ///
@@ -1345,10 +1291,7 @@ pub enum MavCmd {
     /// Re-request a CAMERA_IMAGE_CAPTURED message.
     ///
     /// `MAV_CMD_REQUEST_CAMERA_IMAGE_CAPTURE` = 2002
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestCameraImageCapture,
     /// Enable or disable on-board camera triggering system.
     ///
@@ -1387,18 +1330,12 @@ pub enum MavCmd {
     /// Request video stream information (VIDEO_STREAM_INFORMATION)
     ///
     /// `MAV_CMD_REQUEST_VIDEO_STREAM_INFORMATION` = 2504
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestVideoStreamInformation,
     /// Request video stream status (VIDEO_STREAM_STATUS)
     ///
     /// `MAV_CMD_REQUEST_VIDEO_STREAM_STATUS` = 2505
-    #[deprecated(
-        since = "2019-08",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2019-08, replaced by MAV_CMD_REQUEST_MESSAGE")]
     RequestVideoStreamStatus,
     /// Request to start streaming logging data over MAVLink (see also LOGGING_DATA message)
     ///
@@ -1483,10 +1420,7 @@ pub enum MavCmd {
     /// request re-transmission of the node information messages.
     ///
     /// `MAV_CMD_UAVCAN_GET_NODE_INFO` = 5200
-    #[deprecated(
-        since = "2026-05",
-        note = "superseded, replaced by MAV_CMD_REQUEST_MESSAGE"
-    )]
+    #[deprecated(note = "superseded since 2026-05, replaced by MAV_CMD_REQUEST_MESSAGE")]
     UavcanGetNodeInfo,
     /// Change state of safety switch.
     ///
@@ -1502,12 +1436,12 @@ pub enum MavCmd {
     /// release position and velocity.
     ///
     /// `MAV_CMD_PAYLOAD_PREPARE_DEPLOY` = 30001
-    #[deprecated(since = "2021-06", note = "superseded")]
+    #[deprecated(note = "superseded since 2021-06")]
     PayloadPrepareDeploy,
     /// Control the payload deployment.
     ///
     /// `MAV_CMD_PAYLOAD_CONTROL_DEPLOY` = 30002
-    #[deprecated(since = "2021-06", note = "superseded")]
+    #[deprecated(note = "superseded since 2021-06")]
     PayloadControlDeploy,
     /// User defined waypoint item. Ground Station will show the Vehicle as flying through this item.
     ///
@@ -2469,7 +2403,7 @@ impl ::ferrolink_runtime::mavlink::Message for ParamSet {
 /// https://mavlink.io/en/services/mission.html.
 ///
 /// `MISSION_ITEM`: id 39, CRC_EXTRA 254, payload 37 bytes (38 with extensions).
-#[deprecated(since = "2020-06", note = "deprecated, replaced by MISSION_ITEM_INT")]
+#[deprecated(note = "deprecated since 2020-06, replaced by MISSION_ITEM_INT")]
 #[derive(Clone, Copy, PartialEq)]
 pub struct MissionItem {
     /// System ID
@@ -2584,8 +2518,7 @@ impl ::ferrolink_runtime::mavlink::Message for MissionItem {
 ///
 /// `MISSION_REQUEST`: id 40, CRC_EXTRA 230, payload 4 bytes (5 with extensions).
 #[deprecated(
-    since = "2020-06",
-    note = "deprecated, replaced by MISSION_REQUEST_INT: A system that gets this request should respond with MISSION_ITEM_INT (as though MISSION_REQUEST_INT was received)."
+    note = "deprecated since 2020-06, replaced by MISSION_REQUEST_INT: A system that gets this request should respond with MISSION_ITEM_INT (as though MISSION_REQUEST_INT was received)."
 )]
 #[derive(Clone, Copy, PartialEq)]
 pub struct MissionRequest {
@@ -2659,8 +2592,7 @@ impl ::ferrolink_runtime::mavlink::Message for MissionRequest {
 ///
 /// `MISSION_SET_CURRENT`: id 41, CRC_EXTRA 28, payload 4 bytes (4 with extensions).
 #[deprecated(
-    since = "2022-08",
-    note = "superseded, replaced by MAV_CMD_DO_SET_MISSION_CURRENT"
+    note = "superseded since 2022-08, replaced by MAV_CMD_DO_SET_MISSION_CURRENT"
 )]
 #[derive(Clone, Copy, PartialEq)]
 pub struct MissionSetCurrent {
