@@ -29,6 +29,7 @@ pub mod services;
 pub mod shared;
 pub mod tlog;
 pub mod vehicle;
+pub mod wait;
 
 use std::io;
 use std::sync::Arc;
@@ -45,7 +46,9 @@ pub use crate::framed::Async;
 pub use crate::framed::{Blocking, Events};
 pub use crate::link::PeerId;
 use crate::uri::{Form, Grammar, Scheme};
-pub use shared::{Counts, Filter, OwnHeartbeat, Route, SharedConnection, Subscription, Unsigned};
+pub use shared::{
+    Counts, Filter, OwnHeartbeat, Route, SharedConnection, Subscription, Tap, Unsigned,
+};
 
 /// Baud rate of a serial URI without one.
 pub const DEFAULT_BAUD: u32 = 57_600;

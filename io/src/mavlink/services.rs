@@ -32,7 +32,8 @@ use ferrolink_runtime::mavlink::service::peers::Peers;
 use ferrolink_runtime::mavlink::service::Address;
 use ferrolink_runtime::mavlink::{Dialect, MessageMeta};
 
-use super::{Connection, Filter, SharedConnection, Subscription};
+use super::wait::{block_on, Blocking, Wait};
+use super::{Connection, Filter, OwnHeartbeat, SharedConnection, Subscription};
 
 /// The messages the services use: a table to open a [`Connection`] with when nothing else is
 /// needed.
@@ -200,7 +201,6 @@ pub struct Remote<'c> {
     replies: Subscription,
     target: Peer,
     start: Instant,
-    beat: Instant,
     /// Overrides the target's parameter encoding (which otherwise follows its autopilot).
     pub encoding: Option<Encoding>,
     /// The command client's settings.
@@ -232,12 +232,15 @@ impl<'c> Remote<'c> {
         let own = Address::new(sysid, compid);
         let ids: Vec<u32> = TABLE.iter().map(|m| m.id).collect();
         let replies = link.subscribe(Filter::all().ids(&ids).system(target.address.system));
+        // A ground station's heartbeat, once a second, unless the program sends its own.
+        if !link.is_beating() {
+            link.start_heartbeat(OwnHeartbeat::default());
+        }
         Self {
             link,
             replies,
             target,
             start: Instant::now(),
-            beat: Instant::now(),
             encoding: None,
             command_config: command::ClientConfig::new(own),
             param_config: param::ClientConfig::new(own),
@@ -259,29 +262,14 @@ impl<'c> Remote<'c> {
         self.start.elapsed().as_micros() as u64
     }
 
-    /// The next service message from the target's system, or `None` at `until_us`. Our
-    /// heartbeat goes out once a second meanwhile, unless the connection sends its own.
+    /// The next service message from the target's system, or `None` at `until_us`.
     pub(super) fn next(&mut self, until_us: u64) -> io::Result<Option<(Address, Message)>> {
-        loop {
-            let now = Instant::now();
-            if now >= self.beat {
-                if !self.link.is_beating() {
-                    send_heartbeat(self.link);
-                }
-                self.beat = now + Duration::from_secs(1);
-            }
-            let now_us = self.now_us();
-            if now_us >= until_us {
-                return Ok(None);
-            }
-            let wait = Duration::from_micros(until_us - now_us).min(self.beat - now);
-            if let Some(frame) = self.replies.recv(wait)? {
-                if let Ok(msg) = frame.decode::<Message>() {
-                    let h = frame.header();
-                    return Ok(Some((Address::new(h.sysid, h.compid), msg)));
-                }
-            }
-        }
+        let exchange = Exchange {
+            link: self.link,
+            replies: &self.replies,
+            start: self.start,
+        };
+        block_on(exchange.next(&Blocking, until_us))
     }
 
     pub(super) fn send(&mut self, msg: &Message) -> io::Result<()> {
@@ -299,29 +287,18 @@ impl<'c> Remote<'c> {
     pub fn command(
         &mut self,
         command: Command,
-        mut progress: impl FnMut(u8),
+        progress: impl FnMut(u8),
     ) -> io::Result<Option<Ack>> {
-        let mut client: command::Client<1> = command::Client::new(self.command_config);
+        let exchange = Exchange {
+            link: self.link,
+            replies: &self.replies,
+            start: self.start,
+        };
+        let config = self.command_config;
         let target = self.target.address;
-        client
-            .send(self.now_us(), target, command)
-            .map_err(|e| io::Error::other(e.to_string()))?;
-        loop {
-            let now = self.now_us();
-            while let Some(m) = client.poll_transmit(now) {
-                self.send(&m)?;
-            }
-            while let Some(e) = client.poll_event() {
-                match e {
-                    command::Event::Progress { progress: p, .. } => progress(p),
-                    command::Event::Done { ack, .. } => return Ok(ack),
-                }
-            }
-            let until = client.poll_timeout().unwrap_or(now + 1_000_000);
-            if let Some((from, msg)) = self.next(until)? {
-                client.handle(self.now_us(), from, &msg);
-            }
-        }
+        block_on(run_command(
+            &exchange, &Blocking, config, target, command, progress,
+        ))
     }
 
     fn param_client(&self) -> param::Client<2048> {
@@ -559,6 +536,75 @@ impl<'c> Remote<'c> {
             }
         }
         Ok(None)
+    }
+}
+
+/// What a drive loop talks through: the connection it sends on, the subscription it reads the
+/// replies from, and the instant its clock counts from.
+#[derive(Debug, Clone, Copy)]
+pub struct Exchange<'a> {
+    /// Where requests go.
+    pub link: &'a SharedConnection,
+    /// Where replies come from: the services' messages of the target's system, at least.
+    pub replies: &'a Subscription,
+    /// Time zero of the state machines' clock.
+    pub start: Instant,
+}
+
+impl Exchange<'_> {
+    fn now_us(&self) -> u64 {
+        self.start.elapsed().as_micros() as u64
+    }
+
+    /// The next service message of the replies, or `None` at `until_us`.
+    async fn next(
+        &self,
+        wait: &impl Wait,
+        until_us: u64,
+    ) -> io::Result<Option<(Address, Message)>> {
+        let until = self.start + Duration::from_micros(until_us);
+        loop {
+            let Some(frame) = wait.next(self.replies, until).await? else {
+                return Ok(None);
+            };
+            if let Ok(msg) = frame.decode::<Message>() {
+                let h = frame.header();
+                return Ok(Some((Address::new(h.sysid, h.compid), msg)));
+            }
+        }
+    }
+}
+
+/// The command service's drive loop, for both faces ([`super::wait`]): sends `command` to
+/// `target` with the client's retries and waits for its final answer; `progress` sees each
+/// `IN_PROGRESS`. `None` when nothing answered after the retries.
+pub async fn run_command(
+    exchange: &Exchange<'_>,
+    wait: &impl Wait,
+    config: command::ClientConfig,
+    target: Address,
+    command: Command,
+    mut progress: impl FnMut(u8),
+) -> io::Result<Option<Ack>> {
+    let mut client: command::Client<1> = command::Client::new(config);
+    client
+        .send(exchange.now_us(), target, command)
+        .map_err(|e| io::Error::other(e.to_string()))?;
+    loop {
+        let now = exchange.now_us();
+        while let Some(m) = client.poll_transmit(now) {
+            exchange.link.send_dialect(&m)?;
+        }
+        while let Some(e) = client.poll_event() {
+            match e {
+                command::Event::Progress { progress: p, .. } => progress(p),
+                command::Event::Done { ack, .. } => return Ok(ack),
+            }
+        }
+        let until = client.poll_timeout().unwrap_or(now + 1_000_000);
+        if let Some((from, msg)) = exchange.next(wait, until).await? {
+            client.handle(exchange.now_us(), from, &msg);
+        }
     }
 }
 

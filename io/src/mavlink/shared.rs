@@ -190,12 +190,28 @@ struct Tx {
     signer: Option<Signer>,
 }
 
-/// A subscriber's end of its queue.
+/// A subscriber: its filter, and its end of its queue or its tap.
 struct Slot {
     filter: Filter,
-    tx: flume::Sender<Frame>,
-    dropped: Arc<AtomicU64>,
+    to: To,
 }
+
+/// Where a subscriber's frames go.
+enum To {
+    Queue {
+        tx: flume::Sender<Frame>,
+        dropped: Arc<AtomicU64>,
+    },
+    Tap {
+        id: u64,
+        f: Arc<TapFn>,
+    },
+}
+
+/// What a [`Tap`] runs on each frame it takes.
+type TapFn = dyn Fn(&Frame) + Send + Sync;
+
+static NEXT_TAP: AtomicU64 = AtomicU64::new(1);
 
 struct Inner {
     name: Arc<str>,
@@ -351,8 +367,10 @@ impl SharedConnection {
         let dropped = Arc::new(AtomicU64::new(0));
         let slot = Slot {
             filter,
-            tx,
-            dropped: dropped.clone(),
+            to: To::Queue {
+                tx,
+                dropped: dropped.clone(),
+            },
         };
         if !self.is_stopped() {
             lock(&self.inner.subscribers).push(slot);
@@ -361,6 +379,23 @@ impl SharedConnection {
             rx,
             dropped,
             name: self.inner.name.clone(),
+        }
+    }
+
+    /// Runs `f` on every frame `filter` takes, on the endpoint's thread as the frame arrives,
+    /// until the [`Tap`] is dropped: for state that must follow every frame (the latest
+    /// telemetry, the systems seen) with no queue and no thread of its own. `f` must be quick
+    /// and must not wait; it must not send or subscribe on this connection (the frame's
+    /// handling holds the connection's receiving side).
+    pub fn tap(&self, filter: Filter, f: impl Fn(&Frame) + Send + Sync + 'static) -> Tap {
+        let id = NEXT_TAP.fetch_add(1, Ordering::Relaxed);
+        lock(&self.inner.subscribers).push(Slot {
+            filter,
+            to: To::Tap { id, f: Arc::new(f) },
+        });
+        Tap {
+            id,
+            inner: Arc::downgrade(&self.inner),
         }
     }
 
@@ -597,19 +632,23 @@ impl Inner {
     fn fan_out(&self, frame: Frame) -> u64 {
         let (id, sysid) = (frame.msg_id(), frame.header().sysid);
         let mut dropped = 0;
-        lock(&self.subscribers).retain(|slot| {
-            if !slot.filter.takes(id, sysid) {
-                return !slot.tx.is_disconnected();
+        lock(&self.subscribers).retain(|slot| match &slot.to {
+            To::Tap { f, .. } => {
+                if slot.filter.takes(id, sysid) {
+                    f(&frame);
+                }
+                true
             }
-            match slot.tx.try_send(frame.clone()) {
+            To::Queue { tx, .. } if !slot.filter.takes(id, sysid) => !tx.is_disconnected(),
+            To::Queue { tx, dropped: lost } => match tx.try_send(frame.clone()) {
                 Ok(()) => true,
                 Err(flume::TrySendError::Full(_)) => {
-                    slot.dropped.fetch_add(1, Ordering::Relaxed);
+                    lost.fetch_add(1, Ordering::Relaxed);
                     dropped += 1;
                     true
                 }
                 Err(flume::TrySendError::Disconnected(_)) => false,
-            }
+            },
         });
         dropped
     }
@@ -660,6 +699,22 @@ fn heartbeats(weak: &Weak<Inner>, beat: &Beat) {
                 .wait_timeout_while(settings, interval, |s| *s == now && weak.strong_count() > 0)
                 .unwrap_or_else(std::sync::PoisonError::into_inner),
         );
+    }
+}
+
+/// A tap on a connection ([`SharedConnection::tap`]); dropping it removes it.
+#[derive(Debug)]
+pub struct Tap {
+    id: u64,
+    inner: Weak<Inner>,
+}
+
+impl Drop for Tap {
+    fn drop(&mut self) {
+        if let Some(inner) = self.inner.upgrade() {
+            lock(&inner.subscribers)
+                .retain(|slot| !matches!(slot.to, To::Tap { id, .. } if id == self.id));
+        }
     }
 }
 
