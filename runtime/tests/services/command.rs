@@ -511,3 +511,38 @@ proptest! {
         prop_assert!(answered >= 19, "only {} of 20 short commands answered", answered);
     }
 }
+
+/// A command refused, another, then the first again: the first is run again (take off while
+/// disarmed is refused; arm; take off), not answered from memory as a copy. An accepted one
+/// sent again at once is still a copy.
+#[test]
+fn the_same_command_after_another_is_a_new_one() {
+    let mut s = server();
+    let takeoff = Message::CommandLong(CommandLong {
+        command: MavCmd::NavTakeoff,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    });
+    assert!(s.handle(0, GCS, &takeoff).is_some());
+    s.respond(
+        1,
+        GCS,
+        MavCmd::NavTakeoff,
+        Ack::new(MavResult::TemporarilyRejected),
+    );
+    s.poll_transmit(1);
+    assert!(s.handle(100, GCS, &long(0, 1.0)).is_some());
+    s.respond(
+        101,
+        GCS,
+        MavCmd::ComponentArmDisarm,
+        Ack::new(MavResult::Accepted),
+    );
+    s.poll_transmit(101);
+    assert!(s.handle(200, GCS, &takeoff).is_some(), "run again");
+    // A copy of it right after is still a copy.
+    s.respond(201, GCS, MavCmd::NavTakeoff, Ack::new(MavResult::Accepted));
+    s.poll_transmit(201);
+    assert_eq!(s.handle(300, GCS, &takeoff), None);
+}

@@ -14,7 +14,8 @@
 //! [`Server`] hands each new command to the application once, and answers a repeat of one it has
 //! seen with the same ACK (or `IN_PROGRESS` while it runs) without running it again. A repeat
 //! is a COMMAND_LONG with `confirmation` above 0, or the same values again within
-//! [`ServerConfig::repeat_window_us`]. Another command of an id that still runs for that sender
+//! [`ServerConfig::repeat_window_us`]; a command that was refused changed nothing and is run
+//! again. Another command of an id that still runs for that sender
 //! is refused with `MAV_RESULT_TEMPORARILY_REJECTED`, since the protocol tells answers apart by
 //! command id only.
 //!
@@ -548,6 +549,13 @@ impl Seen {
         self.answer
             .is_none_or(|a| a.result == MavResult::InProgress)
     }
+
+    /// Whether it was refused (or failed): it changed nothing, so running it again is safe,
+    /// and right when what made it fail has changed since.
+    fn refused(&self) -> bool {
+        self.answer
+            .is_some_and(|a| !matches!(a.result, MavResult::Accepted | MavResult::InProgress))
+    }
 }
 
 /// The server's settings.
@@ -559,7 +567,9 @@ pub struct ServerConfig {
     /// a new command: a retry of COMMAND_INT (which has no `confirmation` to tell) or a copy
     /// the link repeated. 2 s by default, a whole MAVSDK retry cycle; make it cover the retry
     /// span of the clients you expect. A COMMAND_LONG with `confirmation` above 0 is a repeat
-    /// at any time.
+    /// at any time. A command that was refused or failed is run again whenever it comes: it
+    /// changed nothing, and its answer may differ now (take off, refused while disarmed; arm;
+    /// take off).
     pub repeat_window_us: u64,
 }
 
@@ -659,6 +669,7 @@ impl<const N: usize> Server<N> {
         if let Some(s) = self.seen.iter_mut().flatten().find(|s| {
             s.from == from
                 && s.command.same(&command)
+                && !s.refused()
                 && (confirmation.is_some_and(|c| c > 0)
                     || now_us.saturating_sub(s.last_us) <= window)
         }) {
