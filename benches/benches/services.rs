@@ -225,6 +225,7 @@ fn ours(loss: u32, root: &Path) -> Vec<Outcome> {
         params: params(),
         table: services::TABLE.into(),
         ftp_root: Some(root.to_path_buf()),
+        home: ferrolink_io::mavlink::vehicle::HOME,
     };
     let stop = Arc::new(AtomicBool::new(false));
     let stopping = stop.clone();

@@ -7,6 +7,8 @@ mod mavlink;
 mod mavlink_ftp;
 mod mavlink_services;
 mod mavlink_stats;
+#[cfg(feature = "vehicle")]
+mod mavlink_vehicle;
 mod modrob;
 mod ndlcom;
 mod schemes;

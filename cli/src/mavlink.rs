@@ -121,6 +121,16 @@ pub enum Command {
     /// Files of a vehicle over MAVLink FTP: ls, get, put.
     #[command(subcommand)]
     Ftp(crate::mavlink_ftp::FtpCommand),
+    /// A vehicle's telemetry, one JSON line per update (position, attitude, battery, gps,
+    /// state, text). Exit 0 after --count lines or --duration seconds, 2 when no vehicle is
+    /// heard within 10 s.
+    #[cfg(feature = "vehicle")]
+    Telemetry(crate::mavlink_vehicle::TelemetryArgs),
+    /// Do an action on a vehicle and print `{"action": .., "result": .., "command": ..}`. Exit 0
+    /// when it accepted, 1 when it refused (or the mode has no such name), 2 when nothing
+    /// answered.
+    #[cfg(feature = "vehicle")]
+    Action(crate::mavlink_vehicle::ActionArgs),
     /// A software vehicle: HEARTBEAT, parameters, missions, commands and FTP on every endpoint,
     /// for testing ground software. Prints `ready` once every endpoint is open.
     Vehicle(crate::mavlink_services::VehicleArgs),
@@ -331,6 +341,10 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Cmd(args) => crate::mavlink_services::command(args),
         Command::Ftp(command) => crate::mavlink_ftp::ftp(command),
         Command::Vehicle(args) => crate::mavlink_services::vehicle(args),
+        #[cfg(feature = "vehicle")]
+        Command::Telemetry(args) => crate::mavlink_vehicle::telemetry(args),
+        #[cfg(feature = "vehicle")]
+        Command::Action(args) => crate::mavlink_vehicle::action(args),
     }
 }
 

@@ -37,6 +37,24 @@ pub struct TargetArg {
     pub(crate) dialect: Vec<PathBuf>,
 }
 
+fn parse_home(s: &str) -> std::result::Result<ferrolink_io::mavlink::flight::Point, String> {
+    let parts: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| {
+            format!("`{s}`: write the home as LAT,LON,ALT, e.g. 47.397742,8.545594,488")
+        })?;
+    match parts[..] {
+        [lat, lon, alt] if lat.abs() <= 90.0 && lon.abs() <= 180.0 && alt.is_finite() => {
+            Ok(ferrolink_io::mavlink::flight::Point { lat, lon, alt })
+        }
+        _ => Err(format!(
+            "`{s}`: LAT within ±90, LON within ±180 and ALT in metres, e.g. 47.397742,8.545594,488"
+        )),
+    }
+}
+
 fn parse_target(s: &str) -> std::result::Result<Address, String> {
     let (sys, comp) = s
         .split_once('/')
@@ -219,6 +237,10 @@ pub struct VehicleArgs {
     /// The directory it serves over MAVLink FTP (read and written; nothing outside it).
     #[arg(long, value_name = "DIR")]
     ftp_root: Option<PathBuf>,
+    /// Where it stands at first and comes home to: degrees, degrees, metres above sea level
+    /// [default: 47.397742,8.545594,488.0, PX4's SITL home].
+    #[arg(long, value_name = "LAT,LON,ALT", value_parser = parse_home, allow_hyphen_values = true)]
+    home: Option<ferrolink_io::mavlink::flight::Point>,
     /// Stop after SECS seconds (SIGINT and SIGTERM stop it too).
     #[arg(long, value_name = "SECS", value_parser = ferrolink_io::seconds::parse)]
     run_for: Option<Duration>,
@@ -237,7 +259,9 @@ pub(crate) fn open(uri: &str, target: &TargetArg) -> Result<Connection> {
 }
 
 /// The services' messages, then those of `dialect` (or the default dialect) that they lack.
-fn table_with(dialect: &[PathBuf]) -> Result<Vec<ferrolink_runtime::mavlink::MessageMeta>> {
+pub(crate) fn table_with(
+    dialect: &[PathBuf],
+) -> Result<Vec<ferrolink_runtime::mavlink::MessageMeta>> {
     let mut table = services::TABLE.to_vec();
     for m in Dialects::load(dialect, crate::dialect::DEFAULT)?
         .table
@@ -733,6 +757,7 @@ pub fn vehicle(args: VehicleArgs) -> Result<ExitCode> {
         params,
         table: table.into(),
         ftp_root: args.ftp_root,
+        home: args.home.unwrap_or(vehicle::HOME),
     };
     let run_for = args.run_for;
     for uri in &args.endpoints {

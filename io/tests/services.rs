@@ -61,6 +61,7 @@ fn vehicle_at(
         params,
         table: services::TABLE.into(),
         ftp_root: root.map(std::path::Path::to_path_buf),
+        home: ferrolink_io::mavlink::vehicle::HOME,
     };
     let stop = stop.clone();
     std::thread::spawn(move || {

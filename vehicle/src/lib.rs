@@ -37,8 +37,9 @@
 //! [`dialects`].
 
 pub mod action;
-pub mod modes;
 pub mod telemetry;
+
+pub use ferrolink_io::mavlink::modes;
 
 use std::io;
 use std::sync::Arc;
@@ -145,6 +146,7 @@ impl Node {
         System {
             node: self.clone(),
             id,
+            component: 1,
         }
     }
 
@@ -194,6 +196,7 @@ fn table() -> Arc<[MessageMeta]> {
 pub struct System {
     node: Node,
     id: u8,
+    component: u8,
 }
 
 impl std::fmt::Debug for System {
@@ -206,6 +209,13 @@ impl System {
     /// Its system id.
     pub fn id(&self) -> u8 {
         self.id
+    }
+
+    /// The same system, its commands going to component `component` (1, the autopilot, by
+    /// default).
+    pub fn with_component(mut self, component: u8) -> System {
+        self.component = component;
+        self
     }
 
     /// Its autopilot, from its last HEARTBEAT.
@@ -249,7 +259,7 @@ impl System {
         Remote::on(
             &self.node.inner.link,
             Peer {
-                address: Address::new(self.id, 1),
+                address: Address::new(self.id, self.component),
                 autopilot: services_enum::MavAutopilot::from_raw(
                     identity.map_or(0, |i| i.autopilot.raw()),
                 ),
@@ -279,8 +289,8 @@ impl System {
         block_on(self.run_action(&Blocking, action, progress))
     }
 
-    /// Sends `command` to its autopilot (component 1) through the command service and waits
-    /// for the answer.
+    /// Sends `command` to it (component 1 unless [`System::with_component`] says otherwise)
+    /// through the command service and waits for the answer.
     pub fn command(&self, command: Command, progress: impl FnMut(u8)) -> io::Result<Outcome> {
         block_on(self.run_commands(&Blocking, vec![command], progress))
     }
@@ -347,7 +357,10 @@ impl System {
                 format!("system {} sent no HEARTBEAT yet", self.id),
             ))
         })?;
-        let home = self.telemetry().home().map(|h| h.alt_amsl);
+        let home = match action {
+            Action::Takeoff { .. } => self.home_amsl(wait).await?,
+            _ => None,
+        };
         let steps = action::plan(action, &identity, home)?;
         if steps.is_empty() {
             // Already there (in the mode asked for).
@@ -358,6 +371,29 @@ impl System {
             });
         }
         Ok(self.run_commands(wait, steps, progress).await?)
+    }
+
+    /// Home's altitude above sea level: from HOME_POSITION, or from a position (its altitude
+    /// less its height above home), waiting up to a second for either.
+    async fn home_amsl(&self, wait: &impl Wait) -> io::Result<Option<f32>> {
+        let known = || {
+            let t = self.telemetry();
+            t.home()
+                .map(|h| h.alt_amsl)
+                .or_else(|| t.position().map(|p| p.alt_amsl - p.alt_rel))
+        };
+        let frames = self
+            .node
+            .inner
+            .link
+            .subscribe(Filter::all().ids(&[33, 242]).system(self.id));
+        let until = Instant::now() + Duration::from_secs(1);
+        while known().is_none() {
+            if wait.next(&frames, until).await?.is_none() {
+                break;
+            }
+        }
+        Ok(known())
     }
 
     /// Sends `steps` one after the other, each once the one before was accepted.
@@ -376,7 +412,7 @@ impl System {
         };
         let (sysid, compid) = link.ids();
         let config = command::ClientConfig::new(Address::new(sysid, compid));
-        let target = Address::new(self.id, 1);
+        let target = Address::new(self.id, self.component);
         let mut outcome = Outcome {
             result: ActionResult::NoAnswer,
             command: 0,

@@ -21,6 +21,7 @@ fn start_vehicle(stop: &Arc<AtomicBool>) -> (u16, std::thread::JoinHandle<()>) {
         params: Vec::new(),
         table: services::TABLE.into(),
         ftp_root: None,
+        home: ferrolink_io::mavlink::vehicle::HOME,
     };
     let stop = stop.clone();
     let endpoint = format!("udpin://127.0.0.1:{port}");

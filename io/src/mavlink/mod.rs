@@ -21,8 +21,10 @@
 //! connection for many threads and tasks at once: see [`shared`].
 
 pub mod config;
+pub mod flight;
 pub mod ftp;
 pub mod missionfile;
+pub mod modes;
 pub mod paramfile;
 pub mod router;
 pub mod services;

@@ -1,17 +1,28 @@
-//! A software vehicle: HEARTBEAT, parameters, missions (with geofence and rally points) and
-//! commands served on MAVLink endpoints, for testing ground software the way people use a
-//! simulator.
+//! A software vehicle: it flies ([`super::flight`]), publishes its telemetry, and serves
+//! parameters, missions (with geofence and rally points), commands and files on MAVLink
+//! endpoints, for testing ground software the way people use a simulator.
 //!
-//! Each endpoint has a thread of its own with its own parameter and command servers (answers
-//! go back where the request came from); the parameters and the vehicle's state are shared.
-//! Nothing is written to disk: what is set stays in memory.
+//! Each endpoint has a thread of its own with its own parameter and command servers and its
+//! own telemetry rates (answers go back where the request came from); the parameters, the
+//! missions and the flight are shared. Nothing is written to disk: what is set stays in memory.
+//!
+//! Telemetry, at these rates until MAV_CMD_SET_MESSAGE_INTERVAL says otherwise on that
+//! endpoint: HEARTBEAT, SYS_STATUS, BATTERY_STATUS, EXTENDED_SYS_STATE and MISSION_CURRENT at
+//! 1 Hz, GPS_RAW_INT at 2 Hz, GLOBAL_POSITION_INT at 5 Hz, ATTITUDE at 10 Hz, HOME_POSITION every
+//! 5 s; MISSION_ITEM_REACHED and STATUSTEXT as they happen.
 //!
 //! Commands it knows:
 //!
 //! | command | answer |
 //! |---------|--------|
-//! | `MAV_CMD_COMPONENT_ARM_DISARM` (400) | arms (param1 1) or disarms (0): ACCEPTED |
-//! | `MAV_CMD_NAV_TAKEOFF` (22) | ACCEPTED when armed, else TEMPORARILY_REJECTED |
+//! | `MAV_CMD_COMPONENT_ARM_DISARM` (400) | arms (param1 1) or disarms (0; in the air only with param2 21196): ACCEPTED, else DENIED |
+//! | `MAV_CMD_NAV_TAKEOFF` (22) | climbs: ACCEPTED when armed on the ground (ArduCopter: in GUIDED), else TEMPORARILY_REJECTED (FAILED) |
+//! | `MAV_CMD_NAV_LAND` (21), `MAV_CMD_NAV_RETURN_TO_LAUNCH` (20) | in the air: ACCEPTED; on the ground: DENIED |
+//! | `MAV_CMD_DO_SET_MODE` (176) | a mode of the autopilot's table: ACCEPTED; another: DENIED |
+//! | `MAV_CMD_DO_REPOSITION` (192) | in the air: goes there, ACCEPTED |
+//! | `MAV_CMD_MISSION_START` (300) | armed with a mission: flies it, ACCEPTED |
+//! | `MAV_CMD_SET_MESSAGE_INTERVAL` (511), `MAV_CMD_REQUEST_MESSAGE` (512) | a message it publishes: ACCEPTED; another: UNSUPPORTED |
+//! | `MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN` (246) | 1 on the ground: starts afresh, ACCEPTED |
 //! | `MAV_CMD_PREFLIGHT_CALIBRATION` (241) | takes 2 s: IN_PROGRESS at 0 % and 50 %, then ACCEPTED; COMMAND_CANCEL stops it (CANCELLED) |
 //! | anything else | UNSUPPORTED |
 
@@ -21,19 +32,19 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
-use ferrolink_runtime::mavlink::service::command::{self, Ack, Request};
+use ferrolink_runtime::mavlink::service::command::{self, Ack, Command, Request};
 use ferrolink_runtime::mavlink::service::ftp;
 use ferrolink_runtime::mavlink::service::messages::{
-    Heartbeat, MavAutopilot, MavCmd, MavMissionType, MavModeFlag, MavResult, MavState, MavType,
-    Message,
+    MavAutopilot, MavCmd, MavMissionType, MavResult, MavType, Message,
 };
 use ferrolink_runtime::mavlink::service::mission::{self, Item};
 use ferrolink_runtime::mavlink::service::param::{self, Encoding, Param};
 use ferrolink_runtime::mavlink::service::Address;
 use ferrolink_runtime::mavlink::MessageMeta;
 
+use super::flight::{Flight, Point};
 use super::ftp::DirFs;
-use super::Connection;
+use super::{Connection, SharedConnection};
 
 /// What the vehicle is.
 #[derive(Debug, Clone)]
@@ -51,12 +62,21 @@ pub struct Config {
     pub table: Arc<[MessageMeta]>,
     /// The directory it serves over MAVLink FTP; none: FTP requests go unanswered.
     pub ftp_root: Option<PathBuf>,
+    /// Where it stands at first, and comes home to.
+    pub home: Point,
 }
+
+/// PX4's SITL home, the default: Zurich, 488 m above sea level.
+pub const HOME: Point = Point {
+    lat: 47.397742,
+    lon: 8.545594,
+    alt: 488.0,
+};
 
 struct Shared {
     params: Vec<Param>,
     missions: Missions,
-    armed: bool,
+    flight: Flight,
 }
 
 /// The mission, the geofence and the rally points, and the current mission item.
@@ -149,7 +169,11 @@ pub fn run(
     let shared = Arc::new(Mutex::new(Shared {
         params: config.params.clone(),
         missions: Missions::default(),
-        armed: false,
+        flight: Flight::new(
+            ferrolink_dialects::common::MavAutopilot::from_raw(config.autopilot.raw()),
+            ferrolink_dialects::common::MavType::from_raw(config.kind.raw()),
+            config.home,
+        ),
     }));
     ready();
     let end = run_for.map(|d| Instant::now() + d);
@@ -203,16 +227,29 @@ fn serve(
     let mut running: Vec<Running> = Vec::new();
     let start = Instant::now();
     let now_us = || start.elapsed().as_micros() as u64;
-    let mut beat = Instant::now();
+    let mut rates = Rates::new(start);
+    let mut noted = 0;
+    let sender = link.shared().clone();
     loop {
         let now = Instant::now();
         if stop.load(Ordering::Relaxed) || end.is_some_and(|e| now >= e) {
             return;
         }
-        if now >= beat {
-            let armed = lock(shared).armed;
-            let _ = link.send_dialect(&heartbeat(config, armed));
-            beat = now + Duration::from_secs(1);
+        {
+            let mut state = lock(shared);
+            let Shared {
+                missions, flight, ..
+            } = &mut *state;
+            flight.advance(now, &missions.held[0]);
+            missions.current = flight.current();
+            let total = missions.held[0].len() as u16;
+            for id in rates.due(now) {
+                let _ = publish(&sender, flight, id, total, start);
+            }
+            for (n, note) in flight.notes_after(noted) {
+                let _ = note.send(&sender);
+                noted = *n;
+            }
         }
         // Long commands: progress at half time, the result at the end.
         running.retain_mut(|r| {
@@ -251,9 +288,9 @@ fn serve(
                 let _ = link.send_dialect(&m);
             }
         }
-        // Sleep until a frame, the next heartbeat, a long command's next step, or 100 ms
+        // Sleep until a frame, the next telemetry, a long command's next step, or 100 ms
         // (to look at `stop`).
-        let mut wake = beat.min(now + Duration::from_millis(100));
+        let mut wake = rates.next().min(now + Duration::from_millis(100));
         for r in &running {
             wake = wake
                 .min(r.started + CALIBRATION / 2)
@@ -284,18 +321,23 @@ fn serve(
         {
             let mut state = lock(shared);
             params.handle(&mut state.params[..], t, from, &msg);
+            let before = state.missions.current;
             let mut store = MissionStore {
                 held: &mut state.missions,
                 staged: &mut staged,
             };
             missions.handle(&mut store, t, from, &msg);
+            if state.missions.current != before {
+                let current = state.missions.current;
+                state.flight.set_current(current);
+            }
         }
         if let Some(files) = files.as_mut() {
             ftp.handle(files, t, from, &msg);
         }
         match commands.handle(t, from, &msg) {
             Some(Request::Run { from, command }) => {
-                let answer = run_command(shared, command.command, command.params[0]);
+                let answer = run_command(shared, &mut rates, &command);
                 match answer {
                     Some(ack) => {
                         commands.respond(t, from, command.command, ack);
@@ -332,35 +374,125 @@ fn in_progress(progress: u8) -> Ack {
 }
 
 /// Runs a command: its answer, or `None` for one that takes time.
-fn run_command(shared: &Mutex<Shared>, command: MavCmd, param1: f32) -> Option<Ack> {
-    let mut state = lock(shared);
-    Some(Ack::new(match command {
-        MavCmd::ComponentArmDisarm => {
-            state.armed = param1 >= 0.5;
-            MavResult::Accepted
-        }
-        MavCmd::NavTakeoff if state.armed => MavResult::Accepted,
-        MavCmd::NavTakeoff => MavResult::TemporarilyRejected,
+fn run_command(shared: &Mutex<Shared>, rates: &mut Rates, command: &Command) -> Option<Ack> {
+    let p = command.params;
+    let result = match command.command {
         MavCmd::PreflightCalibration => return None,
-        _ => MavResult::Unsupported,
-    }))
+        MavCmd::SetMessageInterval => rates.set(p[0] as u32, p[1]),
+        MavCmd::RequestMessage => rates.once(p[0] as u32),
+        _ => {
+            let mut state = lock(shared);
+            let len = state.missions.held[0].len() as u16;
+            let result = state.flight.command(command, len);
+            state.missions.current = state.flight.current();
+            result.unwrap_or(MavResult::Unsupported)
+        }
+    };
+    Some(Ack::new(result))
 }
 
-fn heartbeat(config: &Config, armed: bool) -> Message {
-    let mut mode = MavModeFlag::CUSTOM_MODE_ENABLED;
-    if armed {
-        mode |= MavModeFlag::SAFETY_ARMED;
+/// The messages it publishes, with their default intervals.
+const TELEMETRY: &[(u32, Duration)] = &[
+    (0, Duration::from_secs(1)),
+    (1, Duration::from_secs(1)),
+    (24, Duration::from_millis(500)),
+    (30, Duration::from_millis(100)),
+    (33, Duration::from_millis(200)),
+    (42, Duration::from_secs(1)),
+    (147, Duration::from_secs(1)),
+    (242, Duration::from_secs(5)),
+    (245, Duration::from_secs(1)),
+];
+
+/// One endpoint's telemetry rates: when each message is due next, and those asked for once.
+struct Rates {
+    /// Message id, interval (`None`: off), next time due.
+    every: Vec<(u32, Option<Duration>, Instant)>,
+    once: Vec<u32>,
+}
+
+impl Rates {
+    fn new(start: Instant) -> Self {
+        Rates {
+            every: TELEMETRY
+                .iter()
+                .map(|&(id, interval)| (id, Some(interval), start))
+                .collect(),
+            once: Vec::new(),
+        }
     }
-    Message::Heartbeat(Heartbeat {
-        r#type: config.kind,
-        autopilot: config.autopilot,
-        base_mode: mode,
-        custom_mode: 0,
-        system_status: if armed {
-            MavState::Active
+
+    /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` µs, -1 off, 0 the default.
+    fn set(&mut self, id: u32, interval_us: f32) -> MavResult {
+        let Some(slot) = self.every.iter_mut().find(|(i, ..)| *i == id) else {
+            return MavResult::Unsupported;
+        };
+        let default = TELEMETRY.iter().find(|(i, _)| *i == id).map(|(_, d)| *d);
+        slot.1 = if interval_us < 0.0 {
+            None
+        } else if interval_us == 0.0 {
+            default
         } else {
-            MavState::Standby
-        },
-        mavlink_version: 3,
-    })
+            // At most 1 kHz.
+            Some(Duration::from_micros(interval_us.max(1000.0) as u64))
+        };
+        slot.2 = Instant::now();
+        MavResult::Accepted
+    }
+
+    /// MAV_CMD_REQUEST_MESSAGE.
+    fn once(&mut self, id: u32) -> MavResult {
+        if !TELEMETRY.iter().any(|(i, _)| *i == id) {
+            return MavResult::Unsupported;
+        }
+        self.once.push(id);
+        MavResult::Accepted
+    }
+
+    /// The messages due at `now`; each is then due again one interval on.
+    fn due(&mut self, now: Instant) -> Vec<u32> {
+        let mut due = std::mem::take(&mut self.once);
+        for (id, interval, next) in &mut self.every {
+            if let Some(interval) = interval {
+                if now >= *next {
+                    due.push(*id);
+                    // Keep the rate when a beat was late, without a burst to catch up.
+                    *next = (*next + *interval).max(now);
+                }
+            }
+        }
+        due
+    }
+
+    /// When the next message is due.
+    fn next(&self) -> Instant {
+        self.every
+            .iter()
+            .filter(|(_, interval, _)| interval.is_some())
+            .map(|(_, _, next)| *next)
+            .min()
+            .unwrap_or_else(|| Instant::now() + Duration::from_secs(1))
+    }
+}
+
+/// Sends message `id` of the flight on `link`.
+fn publish(
+    link: &SharedConnection,
+    flight: &Flight,
+    id: u32,
+    total: u16,
+    boot: Instant,
+) -> io::Result<()> {
+    match id {
+        0 => link.send(&flight.heartbeat()),
+        1 => link.send(&flight.sys_status()),
+        24 => link.send(&flight.gps(boot)),
+        30 => link.send(&flight.attitude(boot)),
+        33 => link.send(&flight.global_position(boot)),
+        42 => link.send(&flight.mission_current(total)),
+        147 => link.send(&flight.battery_status()),
+        242 => link.send(&flight.home_position()),
+        245 => link.send(&flight.extended_sys_state()),
+        _ => Ok(()),
+    }
 }

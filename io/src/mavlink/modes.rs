@@ -3,8 +3,8 @@
 //! `mavutil` tables have them (a test checks every entry against them).
 //!
 //! ```
-//! use ferrolink_vehicle::dialects::common::{MavAutopilot, MavType};
-//! use ferrolink_vehicle::modes;
+//! use ferrolink_dialects::common::{MavAutopilot, MavType};
+//! use ferrolink_io::mavlink::modes;
 //!
 //! let guided = modes::lookup(MavAutopilot::Ardupilotmega, MavType::Quadrotor, "guided").unwrap();
 //! assert_eq!(guided.custom_mode, 4);
