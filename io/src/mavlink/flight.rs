@@ -699,3 +699,249 @@ impl Note {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    const HOME: Point = Point {
+        lat: 47.397742,
+        lon: 8.545594,
+        alt: 488.0,
+    };
+
+    fn long(cmd: MavCmd, p: [f32; 7]) -> Command {
+        Command::long(cmd, p)
+    }
+
+    /// Advances `flight` by `secs` in 50 ms steps from `t`; returns the new time.
+    fn fly(flight: &mut Flight, t: &mut Instant, secs: f64, mission: &[Item]) {
+        let steps = (secs / 0.05).round() as u32;
+        for _ in 0..steps {
+            *t += Duration::from_millis(50);
+            flight.advance(*t, mission);
+        }
+    }
+
+    /// Metres between two points, horizontally and vertically.
+    fn off(a: Point, b: Point) -> (f64, f64) {
+        let n = (a.lat - b.lat) * M_PER_DEG;
+        let e = (a.lon - b.lon) * M_PER_DEG * a.lat.to_radians().cos();
+        (n.hypot(e), (a.alt - b.alt).abs())
+    }
+
+    fn px4() -> (Flight, Instant) {
+        let flight = Flight::new(MavAutopilot::Px4, MavType::Quadrotor, HOME);
+        let t = flight.last;
+        (flight, t)
+    }
+
+    #[test]
+    fn takes_off_goes_to_a_point_and_lands_disarmed() {
+        let (mut f, mut t) = px4();
+        let takeoff = long(
+            MavCmd::NavTakeoff,
+            [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, 498.0],
+        );
+        assert_eq!(f.command(&takeoff, 0), Some(MavResult::TemporarilyRejected));
+        let arm = long(
+            MavCmd::ComponentArmDisarm,
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(f.command(&arm, 0), Some(MavResult::Accepted));
+        assert_eq!(f.command(&takeoff, 0), Some(MavResult::Accepted));
+        assert_eq!(
+            modes::name(f.autopilot, f.kind, f.custom_mode()),
+            Some("TAKEOFF")
+        );
+        fly(&mut f, &mut t, 2.0, &[]);
+        let climbed = f.position().alt - HOME.alt;
+        assert!((5.5..=6.5).contains(&climbed), "3 m/s for 2 s: {climbed}");
+        fly(&mut f, &mut t, 2.0, &[]);
+        assert_eq!(f.position().alt, 498.0);
+        assert_eq!(
+            modes::name(f.autopilot, f.kind, f.custom_mode()),
+            Some("HOLD")
+        );
+        // 200 m north-east, 20 m up: 20 s at 10 m/s.
+        let to = Point {
+            lat: HOME.lat + 0.0013,
+            lon: HOME.lon + 0.0019,
+            alt: 518.0,
+        };
+        let mut go = Command::int(
+            MavCmd::DoReposition,
+            MavFrame::Global,
+            [-1.0, 1.0, 0.0, f32::NAN],
+            to.lat,
+            to.lon,
+            518.0,
+        );
+        go.frame = MavFrame::Global;
+        assert_eq!(f.command(&go, 0), Some(MavResult::Accepted));
+        let (dist, _) = off(f.position(), to);
+        fly(&mut f, &mut t, dist / SPEED + 1.0, &[]);
+        let (h, v) = off(f.position(), to);
+        assert!(h < 1.0 && v < 1.0, "a go-to ends within 1 m: {h} m, {v} m");
+        assert!(f.global_position(t).hdg > 0, "it faced where it went");
+        // Disarming in the air is refused; landing ends on the ground, disarmed.
+        let disarm = long(MavCmd::ComponentArmDisarm, [0.0; 7]);
+        assert_eq!(f.command(&disarm, 0), Some(MavResult::Denied));
+        assert_eq!(
+            f.command(&long(MavCmd::NavLand, [0.0; 7]), 0),
+            Some(MavResult::Accepted)
+        );
+        fly(&mut f, &mut t, 16.0, &[]);
+        assert_eq!((f.position().alt, f.armed()), (HOME.alt, false));
+        assert_eq!(
+            f.extended_sys_state().landed_state,
+            MavLandedState::OnGround
+        );
+    }
+
+    #[test]
+    fn returns_home_and_lands() {
+        let (mut f, mut t) = px4();
+        f.command(
+            &long(
+                MavCmd::ComponentArmDisarm,
+                [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            ),
+            0,
+        );
+        f.command(
+            &long(MavCmd::NavTakeoff, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 508.0]),
+            0,
+        );
+        fly(&mut f, &mut t, 8.0, &[]);
+        let away = Command::int(
+            MavCmd::DoReposition,
+            MavFrame::Global,
+            [-1.0, 1.0, 0.0, 0.0],
+            HOME.lat + 0.001,
+            HOME.lon,
+            508.0,
+        );
+        f.command(&away, 0);
+        fly(&mut f, &mut t, 15.0, &[]);
+        assert!(off(f.position(), HOME).0 > 100.0);
+        assert_eq!(
+            f.command(&long(MavCmd::NavReturnToLaunch, [0.0; 7]), 0),
+            Some(MavResult::Accepted)
+        );
+        assert_eq!(
+            modes::name(f.autopilot, f.kind, f.custom_mode()),
+            Some("RTL")
+        );
+        fly(&mut f, &mut t, 30.0, &[]);
+        let (h, v) = off(f.position(), HOME);
+        assert!(h < 1.0 && v < 0.01 && !f.armed(), "{h} {v}");
+    }
+
+    fn item(command: MavCmd, lat: f64, lon: f64, alt: f32) -> Item {
+        Item {
+            frame: MavFrame::GlobalRelativeAlt,
+            command,
+            autocontinue: 1,
+            x: (lat * 1e7) as i32,
+            y: (lon * 1e7) as i32,
+            z: alt,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn flies_a_mission_reporting_each_item() {
+        for autopilot in [MavAutopilot::Px4, MavAutopilot::Ardupilotmega] {
+            let mut f = Flight::new(autopilot, MavType::Quadrotor, HOME);
+            let mut t = f.last;
+            let ardupilot = autopilot == MavAutopilot::Ardupilotmega;
+            let mut mission = Vec::new();
+            if ardupilot {
+                mission.push(item(MavCmd::NavWaypoint, HOME.lat, HOME.lon, 0.0));
+                // home
+            }
+            mission.push(item(MavCmd::NavTakeoff, 0.0, 0.0, 15.0));
+            mission.push(item(MavCmd::NavWaypoint, HOME.lat + 0.0005, HOME.lon, 15.0));
+            mission.push(item(
+                MavCmd::NavWaypoint,
+                HOME.lat + 0.0005,
+                HOME.lon + 0.0007,
+                20.0,
+            ));
+            mission.push(item(MavCmd::NavReturnToLaunch, 0.0, 0.0, 0.0));
+            let len = mission.len() as u16;
+            assert_eq!(
+                f.command(&long(MavCmd::MissionStart, [0.0; 7]), len),
+                Some(MavResult::Denied)
+            );
+            f.command(
+                &long(
+                    MavCmd::ComponentArmDisarm,
+                    [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                ),
+                len,
+            );
+            let mode = if ardupilot { "AUTO" } else { "MISSION" };
+            let m = modes::lookup(autopilot, MavType::Quadrotor, mode).unwrap();
+            let set = long(
+                MavCmd::DoSetMode,
+                [1.0, m.main() as f32, m.sub() as f32, 0.0, 0.0, 0.0, 0.0],
+            );
+            assert_eq!(f.command(&set, len), Some(MavResult::Accepted));
+            assert_eq!(f.mission_current(len).mission_state, MissionState::Active);
+            fly(&mut f, &mut t, 60.0, &mission);
+            let reached: Vec<u16> = f
+                .notes_after(0)
+                .filter_map(|(_, n)| match n {
+                    Note::Reached(seq) => Some(*seq),
+                    Note::Text(..) => None,
+                })
+                .collect();
+            let first = u16::from(ardupilot);
+            assert_eq!(reached, (first..len).collect::<Vec<_>>(), "{autopilot:?}");
+            let (h, v) = off(f.position(), HOME);
+            assert!(h < 1.0 && v < 0.01 && !f.armed(), "home, landed: {h} {v}");
+        }
+    }
+
+    #[test]
+    fn ardupilot_copter_takes_off_in_guided_only_and_the_battery_drains() {
+        let mut f = Flight::new(MavAutopilot::Ardupilotmega, MavType::Quadrotor, HOME);
+        let mut t = f.last;
+        assert_eq!(
+            modes::name(f.autopilot, f.kind, f.custom_mode()),
+            Some("STABILIZE")
+        );
+        f.command(
+            &long(
+                MavCmd::ComponentArmDisarm,
+                [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            ),
+            0,
+        );
+        let takeoff = long(MavCmd::NavTakeoff, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]);
+        assert_eq!(f.command(&takeoff, 0), Some(MavResult::Failed));
+        let guided = modes::lookup(f.autopilot, f.kind, "GUIDED").unwrap();
+        let set = long(
+            MavCmd::DoSetMode,
+            [1.0, guided.main() as f32, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        assert_eq!(f.command(&set, 0), Some(MavResult::Accepted));
+        assert_eq!(f.command(&takeoff, 0), Some(MavResult::Accepted));
+        let before = f.battery_status().battery_remaining;
+        fly(&mut f, &mut t, 30.0, &[]);
+        assert_eq!(f.position().alt, HOME.alt + 10.0);
+        assert_eq!(
+            modes::name(f.autopilot, f.kind, f.custom_mode()),
+            Some("GUIDED")
+        );
+        let after = f.battery_status().battery_remaining;
+        assert_eq!(before - after, 6, "0.2 % a second in the air for 30 s");
+        assert!(f.sys_status().voltage_battery < 16_800);
+        // A mode it has not got is refused.
+        let bogus = long(MavCmd::DoSetMode, [1.0, 12.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(f.command(&bogus, 0), Some(MavResult::Denied));
+    }
+}
