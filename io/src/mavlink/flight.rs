@@ -99,6 +99,8 @@ pub struct Flight {
     /// The mode shown when the behaviour's own has no name in the autopilot's table.
     custom_mode: u32,
     battery: f64,
+    /// How high a PX4 take-off without an altitude climbs (MIS_TAKEOFF_ALT), metres.
+    takeoff_default: f64,
     /// The mission item flown.
     current: u16,
     /// What happened that every endpoint reports once: items reached, status texts.
@@ -134,6 +136,7 @@ impl Flight {
             target: None,
             custom_mode: 0,
             battery: 100.0,
+            takeoff_default: 2.5,
             current: 0,
             notes: VecDeque::new(),
             noted: 0,
@@ -216,6 +219,13 @@ impl Flight {
     /// The mission item it flies (or will fly first).
     pub fn current(&self) -> u16 {
         self.current
+    }
+
+    /// How high a take-off without an altitude climbs (PX4's MIS_TAKEOFF_ALT; 2.5 m unless set).
+    pub fn set_takeoff_default(&mut self, metres: f64) {
+        if metres.is_finite() && metres > 0.0 {
+            self.takeoff_default = metres;
+        }
     }
 
     /// Makes `seq` the mission item to fly.
@@ -418,7 +428,9 @@ impl Flight {
             MavCmd::DoReposition => self.reposition(command),
             MavCmd::MissionStart => self.start_mission(mission_len),
             MavCmd::PreflightRebootShutdown if p[0] == 1.0 && !self.in_air() => {
+                let takeoff = self.takeoff_default;
                 *self = Flight::new(self.autopilot, self.kind, self.home);
+                self.takeoff_default = takeoff;
                 MavResult::Accepted
             }
             MavCmd::PreflightRebootShutdown => MavResult::Denied,
@@ -439,11 +451,11 @@ impl Flight {
             // ArduCopter takes off in GUIDED only.
             return MavResult::Failed;
         }
-        // PX4 takes the altitude above sea level (NaN: 2.5 m up), ArduPilot above home.
+        // PX4 takes the altitude above sea level (NaN: MIS_TAKEOFF_ALT up), ArduPilot above home.
         let alt = match (self.ardupilot(), z.is_finite()) {
             (true, _) => self.home.alt + z.max(1.0),
             (false, true) => z.max(self.home.alt + 1.0),
-            (false, false) => self.home.alt + 2.5,
+            (false, false) => self.home.alt + self.takeoff_default,
         };
         self.set(Doing::Takeoff, Some(Point { alt, ..self.at }));
         if self.ardupilot() {

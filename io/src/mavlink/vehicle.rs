@@ -16,7 +16,7 @@
 //! | command | answer |
 //! |---------|--------|
 //! | `MAV_CMD_COMPONENT_ARM_DISARM` (400) | arms (param1 1) or disarms (0; in the air only with param2 21196): ACCEPTED, else DENIED |
-//! | `MAV_CMD_NAV_TAKEOFF` (22) | climbs: ACCEPTED when armed on the ground (ArduCopter: in GUIDED), else TEMPORARILY_REJECTED (FAILED) |
+//! | `MAV_CMD_NAV_TAKEOFF` (22) | climbs: ACCEPTED when armed on the ground (ArduCopter: in GUIDED), else TEMPORARILY_REJECTED (FAILED); PX4 without an altitude climbs its parameter MIS_TAKEOFF_ALT, if it has one, else 2.5 m |
 //! | `MAV_CMD_NAV_LAND` (21), `MAV_CMD_NAV_RETURN_TO_LAUNCH` (20) | in the air: ACCEPTED; on the ground: DENIED |
 //! | `MAV_CMD_DO_SET_MODE` (176) | a mode of the autopilot's table: ACCEPTED; another: DENIED |
 //! | `MAV_CMD_DO_REPOSITION` (192) | in the air: goes there, ACCEPTED |
@@ -383,6 +383,14 @@ fn run_command(shared: &Mutex<Shared>, rates: &mut Rates, command: &Command) -> 
         _ => {
             let mut state = lock(shared);
             let len = state.missions.held[0].len() as u16;
+            let takeoff = state
+                .params
+                .iter()
+                .find(|p| p.name.as_str() == "MIS_TAKEOFF_ALT")
+                .map(|p| p.value.as_f64());
+            if let Some(metres) = takeoff {
+                state.flight.set_takeoff_default(metres);
+            }
             let result = state.flight.command(command, len);
             state.missions.current = state.flight.current();
             result.unwrap_or(MavResult::Unsupported)
