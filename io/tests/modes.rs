@@ -44,7 +44,11 @@ fn our_mode_tables_are_pymavlinks() {
         .args(["-c", TABLES])
         .output()
         .expect("run python");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let tables: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
     // PX4: every pymavlink name (its LOITER is our HOLD) has the same main and sub mode.
     let px4 = tables["px4"].as_object().unwrap();

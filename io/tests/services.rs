@@ -87,7 +87,7 @@ fn connect(port: u16) -> (Connection, services::Peer) {
 }
 
 /// On a shared connection a 1,000-parameter fetch runs beside a telemetry subscriber, and
-/// costs it no frame: every ATTITUDE sent at 200 Hz meanwhile arrives.
+/// costs it no frame: every ATTITUDE another system sends at 200 Hz meanwhile arrives.
 #[test]
 fn telemetry_keeps_flowing_during_a_parameter_fetch() {
     use ferrolink_dialects::common::{Attitude, Message as Common};
@@ -96,16 +96,17 @@ fn telemetry_keeps_flowing_during_a_parameter_fetch() {
 
     let link = SharedConnection::open("udpin://127.0.0.1:0", Common::META).unwrap();
     let port = link.local_addr().unwrap().port();
-    let attitude = link.subscribe(Filter::all().ids(&[Attitude::ID]));
+    // The telemetry of a system beside the vehicle (the vehicle publishes ATTITUDE too).
+    let attitude = link.subscribe(Filter::all().ids(&[Attitude::ID]).system(7));
     let stop = Arc::new(AtomicBool::new(false));
     let params = (0..1000)
         .map(|i| param(&format!("P{i}"), Value::I32(i)))
         .collect();
     let vehicle = vehicle_at(params, None, format!("udpout://127.0.0.1:{port}"), &stop);
-    // The vehicle's telemetry, from the same system, on a socket of its own.
+    // Telemetry from another system (a camera, say), on a socket of its own, at 200 Hz.
     let telemetry =
         SharedConnection::open(&format!("udpout://127.0.0.1:{port}"), Common::META).unwrap();
-    telemetry.set_ids(1, 1);
+    telemetry.set_ids(7, 100);
     let sender = {
         let (telemetry, stop) = (telemetry.clone(), stop.clone());
         std::thread::spawn(move || {

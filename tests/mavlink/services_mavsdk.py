@@ -19,7 +19,8 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
                      parameter among the rest: every value listed bit-exact (CUSTOM as its
                      text), an int, a float and the CUSTOM text set, and MAVSDK's server
                      reports each change.
-  mavsdk_action      MAVSDK's Action plugin arms our vehicle, takes off and disarms.
+  mavsdk_action      MAVSDK's Action plugin arms our vehicle and takes off; in the air, its
+                     disarm is denied and its kill (a forced disarm) accepted.
   our_params         ``ferrolink mavlink param list|get|set`` against a vehicle built from
                      MAVSDK's ParamServer plugin: every value listed bit-exact, an int and a
                      float set, and MAVSDK's server reports the change.
@@ -480,12 +481,20 @@ async def check_mavsdk_action(args):
             action = ActionAsync(system)
             await action.arm()
             await action.takeoff()
-            await action.disarm()
+            # In the air now: a plain disarm is refused, a kill (the forced one) is not.
+            from mavsdk.plugins.action.action import ActionError
+            try:
+                await action.disarm()
+                raise CheckFailed("the vehicle let MAVSDK disarm it in the air")
+            except ActionError as e:
+                if "DENIED" not in str(e):
+                    raise
+            await action.kill()
         finally:
             await mavsdk.__aexit__(None, None, None)
     finally:
         await stop(vehicle)
-    return "arm, takeoff, disarm accepted"
+    return "arm and takeoff accepted; disarm in the air denied, kill accepted"
 
 
 async def mavsdk_vehicle(url, params=True, action=False, extended=False):

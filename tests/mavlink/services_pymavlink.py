@@ -19,6 +19,10 @@ Checks (each prints ``ok``, ``FAIL`` or ``skip``; the last line is ``N passed, M
              falls back to the parameter protocol on our NAK) saves every parameter with the
              vehicle's value, and ``wp list`` saves the mission our CLI uploaded through the
              router, item for item.
+  mavproxy_flies
+             MAVProxy through the router flies the vehicle (ArduCopter): ``mode GUIDED``,
+             ``arm throttle``, ``takeoff 10``; MAVProxy's prompt shows our STABILIZE and
+             GUIDED, and our ``telemetry`` on another endpoint sees it armed at 10 m.
 """
 import argparse
 import math
@@ -304,7 +308,70 @@ def check_mavproxy(args):
     return "%d parameters and a %d-item mission through the router" % (n, len(spec))
 
 
-CHECKS = {"mavwp": check_mavwp, "mavftp": check_mavftp, "mavproxy": check_mavproxy}
+def check_mavproxy_flies(args):
+    """MAVProxy through our router flies our vehicle (as ArduCopter): `mode GUIDED`, `arm
+    throttle`, `takeoff 10`; the modes MAVProxy shows are ours, and our `telemetry` through
+    the router's other endpoint sees the climb."""
+    import importlib.util
+    import json
+    if importlib.util.find_spec("MAVProxy") is None:
+        raise CheckSkipped("Python package 'MAVProxy' is not installed")
+    wd = os.path.join(args.workdir, "mavproxy-flies")
+    shutil.rmtree(wd, ignore_errors=True)
+    state, home = os.path.join(wd, "state"), os.path.join(wd, "home")
+    for d in (state, home):
+        os.makedirs(d)
+    p_vehicle, p_gcs, p_cli = free_port(), free_port(), free_port()
+    router = start([args.ferrolink, "mavlink", "router", "udpin://%s:%d" % (HOST, p_vehicle),
+                    "tcpin://%s:%d" % (HOST, p_gcs), "udpin://%s:%d" % (HOST, p_cli)],
+                   os.path.join(wd, "router.log"))
+    v = mavproxy = None
+    try:
+        time.sleep(0.5)
+        v = vehicle(args, p_vehicle, "mavproxy-flies")
+        env = dict(os.environ, HOME=home, PYTHONUNBUFFERED="1", MPLBACKEND="Agg")
+        env.pop("DISPLAY", None)
+        log = os.path.join(wd, "mavproxy.log")
+        mavproxy = subprocess.Popen(
+            [sys.executable, "-m", "MAVProxy.mavproxy", "--master=tcp:%s:%d" % (HOST, p_gcs),
+             "--state-basedir=" + state, "--target-system=1", "--target-component=1"],
+            stdin=subprocess.PIPE, stdout=open(log, "wb"), stderr=subprocess.STDOUT,
+            env=env, cwd=wd)
+
+        def say(line, expect, seconds=20):
+            mavproxy.stdin.write(line.encode() + b"\n")
+            mavproxy.stdin.flush()
+            if not wait_text(log, expect, seconds, mavproxy):
+                raise CheckFailed("MAVProxy's `%s` never showed %r: %s"
+                                  % (line, expect, open(log, errors="replace").read()[-800:]))
+
+        # MAVProxy names our modes from the heartbeat with pymavlink's ArduCopter table.
+        if not wait_text(log, "STABILIZE>", 30, mavproxy):
+            raise CheckFailed("MAVProxy did not show our STABILIZE: %s"
+                              % open(log, errors="replace").read()[-800:])
+        say("mode GUIDED", "GUIDED>")
+        say("arm throttle", "ARMED")
+        say("takeoff 10", "Got COMMAND_ACK: NAV_TAKEOFF: ACCEPTED")
+        # Our telemetry through the router's third endpoint: armed, GUIDED, 10 m up.
+        time.sleep(4.0)
+        out = subprocess.run([args.ferrolink, "mavlink", "telemetry",
+                              "udpout://%s:%d" % (HOST, p_cli), "--duration", "3"],
+                             capture_output=True, timeout=30)
+        lines = [json.loads(l) for l in out.stdout.decode().splitlines()]
+        states = [l for l in lines if l["kind"] == "state"]
+        heights = [l["alt_rel"] for l in lines if l["kind"] == "position"]
+        if not states or states[-1]["mode"] != "GUIDED" or not states[-1]["armed"]:
+            raise CheckFailed("our telemetry through the router saw %s" % states[-1:])
+        if not heights or abs(heights[-1] - 10.0) > 0.01:
+            raise CheckFailed("the vehicle is at %s m, not 10" % heights[-1:])
+    finally:
+        finish(mavproxy, v, router)
+    return "mode GUIDED, arm throttle, takeoff 10 through the router: at %.1f m, %s" % (
+        heights[-1], states[-1]["mode"])
+
+
+CHECKS = {"mavwp": check_mavwp, "mavftp": check_mavftp, "mavproxy": check_mavproxy,
+          "mavproxy_flies": check_mavproxy_flies}
 
 
 def main():

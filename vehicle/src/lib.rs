@@ -27,7 +27,7 @@
 //!
 //! let node = Node::connect("udpin://0.0.0.0:14550")?;
 //! let vehicle = node.wait_for_system_async(Duration::from_secs(10)).await?.expect("no vehicle");
-//! println!("{:?}", vehicle.telemetry().position());
+//! println!("{:?}", vehicle.telemetry().wait_position_async(Duration::from_secs(5)).await);
 //! vehicle.arm().await?;
 //! vehicle.takeoff(10.0).await?;
 //! # Ok(()) }

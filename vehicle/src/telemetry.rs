@@ -636,6 +636,23 @@ impl Telemetry {
         None
     }
 
+    /// [`Telemetry::wait_position`], async (on tokio's timer).
+    pub async fn wait_position_async(&self, timeout: Duration) -> Option<Position> {
+        let updates = self.subscribe(&[Kind::Position]);
+        if let Some(p) = self.position() {
+            return Some(p);
+        }
+        let wait = async {
+            while let Some(update) = updates.recv_async().await {
+                if let Update::Position(p) = update {
+                    return Some(p);
+                }
+            }
+            None
+        };
+        tokio::time::timeout(timeout, wait).await.ok().flatten()
+    }
+
     /// A subscription to updates of `kinds` (all of them when empty), from now on.
     pub fn subscribe(&self, kinds: &[Kind]) -> Updates {
         let (tx, rx) = flume::bounded(QUEUE);

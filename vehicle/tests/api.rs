@@ -82,8 +82,19 @@ fn blocking_discovery_state_and_actions() {
         panic!("GUIDED is no PX4 mode")
     };
     assert!(known.contains(&"MISSION"));
+    // It flies now: a reboot is refused, and so is a plain disarm.
+    assert_eq!(system.reboot().unwrap().result, ActionResult::Denied);
+    assert_eq!(system.disarm(false).unwrap().result, ActionResult::Denied);
+    assert_eq!(system.disarm(true).unwrap().result, ActionResult::Accepted);
     // What it does not know, it says so.
-    assert_eq!(system.reboot().unwrap().result, ActionResult::Unsupported);
+    let unknown = ferrolink_runtime::mavlink::service::command::Command::long(
+        ferrolink_runtime::mavlink::service::messages::MavCmd::from_raw(31_000),
+        [0.0; 7],
+    );
+    assert_eq!(
+        system.command(unknown, |_| {}).unwrap().result,
+        ActionResult::Unsupported
+    );
     stop.store(true, Ordering::Relaxed);
     vehicle.join().unwrap();
 }
@@ -101,7 +112,12 @@ async fn async_actions_run_without_a_thread_each() {
     let before = thread_count();
     let (a, b) = tokio::join!(system.arm(), system.set_rate(33, 10.0));
     assert_eq!(a.unwrap().result, ActionResult::Accepted);
-    assert_eq!(b.unwrap().result, ActionResult::Unsupported);
+    assert_eq!(b.unwrap().result, ActionResult::Accepted);
+    // A message it does not publish.
+    assert_eq!(
+        system.set_rate(74, 1.0).await.unwrap().result,
+        ActionResult::Unsupported
+    );
     assert_eq!(
         system.takeoff(5.0).await.unwrap().result,
         ActionResult::Accepted

@@ -1,23 +1,24 @@
-//! A companion computer on a vehicle's MAVLink link.
+//! A companion computer on a vehicle's MAVLink link, on the vehicle API.
 //!
 //! ```sh
 //! cargo run -p ferrolink-example-companion -- udpin://0.0.0.0:14550 --seconds 10
 //! ```
 //!
 //! It announces itself with a heartbeat every second (an onboard controller, sysid 1 compid
-//! 191 by default), prints the vehicle's heartbeats and, once a second, its latest attitude. On
-//! the first heartbeat of an autopilot it asks for ATTITUDE at 10 Hz with
-//! `MAV_CMD_SET_MESSAGE_INTERVAL` and prints the vehicle's COMMAND_ACK. It exits after the given
-//! time, with status 0 if it saw a heartbeat, attitude and the acknowledgement.
+//! 191 by default), waits for the vehicle, prints its heartbeats and, once a second, its
+//! latest attitude. It asks for ATTITUDE at 10 Hz (`MAV_CMD_SET_MESSAGE_INTERVAL`, through
+//! the command service) and prints the vehicle's answer. It exits after the given time, with
+//! status 0 if it saw a heartbeat, attitude and the acknowledgement.
 
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use ferrolink_dialects::common::{
-    Attitude, CommandLong, Heartbeat, MavAutopilot, MavCmd, MavModeFlag, MavState, MavType, Message,
-};
-use ferrolink_io::mavlink::Connection;
+use ferrolink_io::mavlink::{OwnHeartbeat, SharedConnection};
+use ferrolink_runtime::mavlink::service::messages::{MavState, MavType};
 use ferrolink_runtime::mavlink::Dialect;
+use ferrolink_vehicle::dialects::common::{Attitude, Message};
+use ferrolink_vehicle::telemetry::{Kind, Update};
+use ferrolink_vehicle::{ActionResult, Node};
 
 fn main() -> ExitCode {
     let mut args = std::env::args().skip(1);
@@ -43,75 +44,52 @@ fn main() -> ExitCode {
 }
 
 fn run(uri: &str, duration: Duration, (sysid, compid): (u8, u8)) -> std::io::Result<bool> {
-    let mut vehicle = Connection::open(uri, Message::META)?;
-    vehicle.set_ids(sysid, compid);
-    let heartbeat = Heartbeat {
-        r#type: MavType::OnboardController,
-        autopilot: MavAutopilot::Invalid,
-        base_mode: MavModeFlag(0),
-        custom_mode: 0,
-        system_status: MavState::Active,
-        mavlink_version: 3,
-    };
     let start = Instant::now();
-    let mut next_heartbeat = start;
-    let mut next_print = start + Duration::from_secs(1);
-    let (mut seen_heartbeat, mut acked) = (false, false);
-    let mut attitude: Option<Attitude> = None;
-    let mut asked = false;
+    let link = SharedConnection::open(uri, Message::META)?;
+    link.set_ids(sysid, compid);
+    link.start_heartbeat(OwnHeartbeat {
+        mav_type: MavType::OnboardController,
+        system_status: MavState::Active,
+        ..OwnHeartbeat::default()
+    });
+    let node = Node::on(link);
+    let Some(vehicle) = node.wait_for_system(duration)? else {
+        return Ok(false);
+    };
+    let updates = vehicle
+        .telemetry()
+        .subscribe(&[Kind::State, Kind::Attitude]);
+    let outcome = vehicle.set_rate(Attitude::ID, 10.0)?;
+    println!("sent SET_MESSAGE_INTERVAL(ATTITUDE, 100 ms)");
+    println!("ack: SET_MESSAGE_INTERVAL {}", outcome.result.name());
+    let mut next_print = Instant::now() + Duration::from_secs(1);
+    let mut seen = (false, false);
     while start.elapsed() < duration {
-        let now = Instant::now();
-        if now >= next_heartbeat {
-            // Nobody to send to yet is fine on a listening endpoint.
-            let _ = vehicle.send(&heartbeat);
-            next_heartbeat += Duration::from_secs(1);
-        }
-        if now >= next_print {
-            if let Some(a) = attitude {
+        let wait = duration
+            .saturating_sub(start.elapsed())
+            .min(Duration::from_millis(100));
+        match updates.recv(wait) {
+            Some(Update::State(_)) => {
+                seen.0 = true;
                 println!(
-                    "attitude: roll {:+.3} pitch {:+.3} yaw {:+.3} rad",
+                    "heartbeat from {}/1: {:?} {:?}",
+                    vehicle.id(),
+                    vehicle.kind(),
+                    vehicle.autopilot()
+                );
+            }
+            Some(Update::Attitude(_)) => seen.1 = true,
+            _ => {}
+        }
+        if Instant::now() >= next_print {
+            if let Some(a) = vehicle.telemetry().attitude() {
+                println!(
+                    "attitude: roll {:+.2} pitch {:+.2} yaw {:+.2} deg",
                     a.roll, a.pitch, a.yaw
                 );
             }
             next_print += Duration::from_secs(1);
         }
-        let Some((header, message)) = vehicle.recv_message::<Message>(Duration::from_millis(50))?
-        else {
-            continue;
-        };
-        match message {
-            Message::Heartbeat(hb) if hb.autopilot != MavAutopilot::Invalid => {
-                println!(
-                    "heartbeat from {}/{}: {:?} {:?} {:?}",
-                    header.sysid, header.compid, hb.r#type, hb.autopilot, hb.system_status
-                );
-                seen_heartbeat = true;
-                if !asked {
-                    asked = true;
-                    let command = CommandLong {
-                        target_system: header.sysid,
-                        target_component: header.compid,
-                        command: MavCmd::SetMessageInterval,
-                        confirmation: 0,
-                        param1: Attitude::ID as f32,
-                        param2: 100_000.0,
-                        param3: 0.0,
-                        param4: 0.0,
-                        param5: 0.0,
-                        param6: 0.0,
-                        param7: 0.0,
-                    };
-                    vehicle.send(&command)?;
-                    println!("sent SET_MESSAGE_INTERVAL(ATTITUDE, 100 ms)");
-                }
-            }
-            Message::Attitude(a) => attitude = Some(a),
-            Message::CommandAck(ack) if ack.target_system == sysid || ack.target_system == 0 => {
-                println!("ack: {:?} {:?}", ack.command, ack.result);
-                acked = true;
-            }
-            _ => {}
-        }
     }
-    Ok(seen_heartbeat && attitude.is_some() && acked)
+    Ok(seen.0 && seen.1 && outcome.result == ActionResult::Accepted)
 }

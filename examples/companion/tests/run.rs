@@ -74,7 +74,10 @@ fn companion_against_a_pymavlink_vehicle() {
         "{text}"
     );
     assert!(text.contains("attitude: roll"), "{text}");
-    assert!(text.contains("ack: SetMessageInterval Accepted"), "{text}");
+    assert!(
+        text.contains("ack: SET_MESSAGE_INTERVAL ACCEPTED"),
+        "{text}"
+    );
     assert!(
         vehicle.contains("command 511 from 1/191 acknowledged"),
         "{vehicle}"
@@ -100,7 +103,10 @@ fn companion_against_a_mavsdk_vehicle() {
         6,
     );
     assert!(text.contains("heartbeat from 1/1"), "{text}");
-    assert!(text.contains("ack: SetMessageInterval Accepted"), "{text}");
+    assert!(
+        text.contains("ack: SET_MESSAGE_INTERVAL ACCEPTED"),
+        "{text}"
+    );
     assert!(text.contains("attitude: roll"), "{text}");
     assert!(vehicle.contains("got command 511 from 1/191"), "{vehicle}");
 }

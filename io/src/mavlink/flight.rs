@@ -465,14 +465,19 @@ impl Flight {
     }
 
     fn set_mode(&mut self, base: f32, main: f32, sub: f32, mission_len: u16) -> MavResult {
-        if base as u32 & u32::from(MavModeFlag::CUSTOM_MODE_ENABLED.0) == 0 {
-            return MavResult::Unsupported;
-        }
         let custom = if self.ardupilot() {
             main as u32
         } else {
             ((main as u32) << 16) | ((sub as u32) << 24)
         };
+        self.set_custom_mode(base as u8, custom, mission_len)
+    }
+
+    /// SET_MODE (what pymavlink and MAVProxy send), or DO_SET_MODE's mode as `custom_mode`.
+    pub fn set_custom_mode(&mut self, base: u8, custom: u32, mission_len: u16) -> MavResult {
+        if base & MavModeFlag::CUSTOM_MODE_ENABLED.0 == 0 {
+            return MavResult::Unsupported;
+        }
         let Some(name) = modes::name(self.autopilot, self.kind, custom) else {
             return MavResult::Denied;
         };

@@ -18,7 +18,7 @@
 //! | `MAV_CMD_COMPONENT_ARM_DISARM` (400) | arms (param1 1) or disarms (0; in the air only with param2 21196): ACCEPTED, else DENIED |
 //! | `MAV_CMD_NAV_TAKEOFF` (22) | climbs: ACCEPTED when armed on the ground (ArduCopter: in GUIDED), else TEMPORARILY_REJECTED (FAILED); PX4 without an altitude climbs its parameter MIS_TAKEOFF_ALT, if it has one, else 2.5 m |
 //! | `MAV_CMD_NAV_LAND` (21), `MAV_CMD_NAV_RETURN_TO_LAUNCH` (20) | in the air: ACCEPTED; on the ground: DENIED |
-//! | `MAV_CMD_DO_SET_MODE` (176) | a mode of the autopilot's table: ACCEPTED; another: DENIED |
+//! | `MAV_CMD_DO_SET_MODE` (176) | a mode of the autopilot's table: ACCEPTED; another: DENIED (SET_MODE, pymavlink's and MAVProxy's way, does the same, unanswered) |
 //! | `MAV_CMD_DO_REPOSITION` (192) | in the air: goes there, ACCEPTED |
 //! | `MAV_CMD_MISSION_START` (300) | armed with a mission: flies it, ACCEPTED |
 //! | `MAV_CMD_SET_MESSAGE_INTERVAL` (511), `MAV_CMD_REQUEST_MESSAGE` (512) | a message it publishes: ACCEPTED; another: UNSUPPORTED |
@@ -313,6 +313,21 @@ fn serve(
             Err(_) => return,
         };
         let Ok(msg) = frame.decode::<Message>() else {
+            // SET_MODE, which pymavlink's set_mode and MAVProxy's `mode` send (superseded by
+            // DO_SET_MODE, and still their way): not a command, so no answer but the next
+            // HEARTBEAT.
+            #[allow(deprecated)]
+            if let Ok(ferrolink_dialects::common::Message::SetMode(m)) =
+                frame.decode::<ferrolink_dialects::common::Message>()
+            {
+                if m.target_system == own.system {
+                    let mut state = lock(shared);
+                    let len = state.missions.held[0].len() as u16;
+                    state
+                        .flight
+                        .set_custom_mode(m.base_mode.raw(), m.custom_mode, len);
+                }
+            }
             continue;
         };
         let h = frame.header();
