@@ -15,6 +15,8 @@
 //!
 //! Each ground station, in turn, as a user would write it:
 //!
+//! - the bare connection (a `SharedConnection` subscription to the six messages' frames,
+//!   decoded in the loop), for what the API's subscriber adds to the latency;
 //! - ours, blocking: `Node::connect`, `wait_for_system`, `telemetry().wait_position`, `arm()`,
 //!   then a subscription to the six kinds read with `recv` in this thread;
 //! - ours, async: the same on a tokio current-thread runtime, `recv_async`;
@@ -23,7 +25,8 @@
 //!   attitude_euler, attitude_quaternion, raw_gps, battery, health), each an async loop
 //!   (`vehicle/mavsdk_telemetry.py`).
 //!
-//! Measured: the time from connecting to the first position, the time `arm` takes, then over
+//! Measured: the time from the vehicle's first frame (the ground station connected before it)
+//! to the first position in the program's hands, the time `arm` takes, then over
 //! the window the updates delivered a second, the CPU time of the ground station's process per
 //! 1,000 updates (getrusage, user + system), and the latency from the vehicle's send to the
 //! subscriber's hands (p50, p99) for the four kinds that carry their number.
@@ -89,6 +92,7 @@ fn vehicle(port: u16, secs: f64, out: &Path) {
         let _ = socket.send_to(&buf[..n], &to);
     };
     let start = Instant::now();
+    let started_ns = mono_ns();
     let period = Duration::from_secs_f64(1.0 / (HZ * KINDS.len() as f64));
     let mut sent: Vec<(usize, u32, u64)> = Vec::new();
     let mut counts = [0u32; 6];
@@ -115,16 +119,17 @@ fn vehicle(port: u16, secs: f64, out: &Path) {
             let mut commands = Vec::new();
             while let Feed::Frame { frame, remaining } = parser.feed(input) {
                 if let Ok(Message::CommandLong(c)) = frame.frame().decode::<Message>() {
-                    commands.push(c.command);
+                    let h = frame.header();
+                    commands.push((c.command, h.sysid, h.compid));
                 }
                 input = remaining;
             }
-            for command in commands {
+            for (command, sysid, compid) in commands {
                 let ack = Message::CommandAck(CommandAck {
                     command,
                     result: MavResult::Accepted,
-                    target_system: 255,
-                    target_component: 190,
+                    target_system: sysid,
+                    target_component: compid,
                     ..Default::default()
                 });
                 // To the ground station's address, where everything goes.
@@ -182,6 +187,7 @@ fn vehicle(port: u16, secs: f64, out: &Path) {
         turn = (turn + 1) % KINDS.len();
     }
     let mut f = std::io::BufWriter::new(std::fs::File::create(out).expect("the send log"));
+    writeln!(f, "start {started_ns}").expect("write");
     for (kind, i, t) in sent {
         writeln!(f, "{kind} {i} {t}").expect("write");
     }
@@ -190,7 +196,8 @@ fn vehicle(port: u16, secs: f64, out: &Path) {
 /// What a ground station measured.
 #[derive(Debug, Default)]
 struct Result_ {
-    first_position_s: f64,
+    /// When the first position was in hands, on the monotonic clock.
+    first_position_ns: u64,
     arm_s: f64,
     updates: u64,
     window_s: f64,
@@ -244,19 +251,16 @@ fn ours_blocking(window: f64, log: &Path) -> Result_ {
     let node = Node::connect("udpin://127.0.0.1:0").expect("connect");
     let port = node.connection().local_addr().expect("bound").port();
     let mut vehicle = spawn_vehicle(port, window + 8.0, log);
-    let start = Instant::now();
     let system = node
         .wait_for_system(Duration::from_secs(10))
         .expect("discovery")
         .expect("the vehicle");
+    system
+        .telemetry()
+        .wait_position(Duration::from_secs(5))
+        .expect("a position");
     let mut r = Result_ {
-        first_position_s: {
-            system
-                .telemetry()
-                .wait_position(Duration::from_secs(5))
-                .expect("a position");
-            start.elapsed().as_secs_f64()
-        },
+        first_position_ns: mono_ns(),
         ..Result_::default()
     };
     let t = Instant::now();
@@ -275,6 +279,39 @@ fn ours_blocking(window: f64, log: &Path) -> Result_ {
     r
 }
 
+/// The bare connection, for the latency a subscriber adds: a subscription to the six messages'
+/// frames, each decoded here for its number.
+fn bare(window: f64, log: &Path) -> Result_ {
+    use ferrolink_io::mavlink::{Filter, SharedConnection};
+    let link = SharedConnection::open("udpin://127.0.0.1:0", Message::META).expect("open");
+    let frames = link.subscribe(Filter::all().ids(&[33, 30, 31, 24, 147, 1]));
+    let port = link.local_addr().expect("bound").port();
+    let mut vehicle = spawn_vehicle(port, window + 2.0, log);
+    let mut r = Result_::default();
+    let (cpu0, t0) = (cpu_s(), Instant::now());
+    while t0.elapsed().as_secs_f64() < window {
+        let Ok(Some(frame)) = frames.recv(Duration::from_millis(100)) else {
+            continue;
+        };
+        let t = mono_ns();
+        let numbered = match frame.decode::<Message>() {
+            Ok(Message::GlobalPositionInt(m)) => Some((0, (m.lat - 470_000_000) as u32)),
+            Ok(Message::Attitude(m)) => Some((1, (m.yaw * 1000.0).round() as u32)),
+            Ok(Message::AttitudeQuaternion(m)) => Some((2, m.q1 as u32)),
+            Ok(Message::BatteryStatus(m)) => Some((4, u32::from(m.voltages[0]) - 10_000)),
+            _ => None,
+        };
+        r.updates += 1;
+        if let Some((kind, i)) = numbered {
+            r.received.push((kind, i, t));
+        }
+    }
+    r.window_s = t0.elapsed().as_secs_f64();
+    r.cpu_s = cpu_s() - cpu0;
+    let _ = vehicle.wait();
+    r
+}
+
 fn ours_async(window: f64, log: &Path) -> Result_ {
     let rt = tokio::runtime::Builder::new_current_thread()
         .enable_time()
@@ -284,7 +321,6 @@ fn ours_async(window: f64, log: &Path) -> Result_ {
         let node = Node::connect("udpin://127.0.0.1:0").expect("connect");
         let port = node.connection().local_addr().expect("bound").port();
         let mut vehicle = spawn_vehicle(port, window + 8.0, log);
-        let start = Instant::now();
         let system = node
             .wait_for_system_async(Duration::from_secs(10))
             .await
@@ -296,7 +332,7 @@ fn ours_async(window: f64, log: &Path) -> Result_ {
             .await
             .expect("a position");
         let mut r = Result_ {
-            first_position_s: start.elapsed().as_secs_f64(),
+            first_position_ns: mono_ns(),
             ..Result_::default()
         };
         let t = Instant::now();
@@ -338,9 +374,15 @@ fn mavsdk(window: f64, log: &Path) -> Option<Result_> {
         .stderr(Stdio::null())
         .spawn()
         .ok()?;
+    // MAVSDK's own log goes to stdout too: skip to our first line.
     let mut lines = std::io::BufReader::new(gcs.stdout.take()?).lines();
-    if lines.next()?.ok()? != "listening" {
+    if !lines
+        .by_ref()
+        .map_while(Result::ok)
+        .any(|l| l == "listening")
+    {
         let _ = gcs.kill();
+        let _ = gcs.wait();
         return None;
     }
     let mut vehicle = spawn_vehicle(port, window + 8.0, log);
@@ -356,7 +398,7 @@ fn read_mavsdk(lines: impl Iterator<Item = String>) -> Option<Result_> {
     for line in lines {
         let mut f = line.split_whitespace();
         match f.next() {
-            Some("first_position_s") => r.first_position_s = f.next()?.parse().ok()?,
+            Some("first_position_ns") => r.first_position_ns = f.next()?.parse().ok()?,
             Some("arm_s") => r.arm_s = f.next()?.parse().ok()?,
             Some("updates") => r.updates = f.next()?.parse().ok()?,
             Some("window_s") => r.window_s = f.next()?.parse().ok()?,
@@ -371,6 +413,15 @@ fn read_mavsdk(lines: impl Iterator<Item = String>) -> Option<Result_> {
         }
     }
     Some(r)
+}
+
+/// When the vehicle started sending, from its log.
+fn started_ns(log: &Path) -> u64 {
+    let text = std::fs::read_to_string(log).expect("the send log");
+    text.lines()
+        .find_map(|l| l.strip_prefix("start "))
+        .and_then(|t| t.parse().ok())
+        .unwrap_or(0)
 }
 
 /// p50 and p99 of the latencies, in µs, from the vehicle's log.
@@ -424,7 +475,11 @@ fn main() {
     println!("| ground station | first position | arm | updates/s | CPU per 1,000 updates | latency p50 | p99 |");
     println!("|---|---:|---:|---:|---:|---:|---:|");
     type Run = Box<dyn Fn(&Path) -> Option<Result_>>;
-    let runs: [(&str, Run); 3] = [
+    let runs: [(&str, Run); 4] = [
+        (
+            "ferrolink, bare connection",
+            Box::new(move |l| Some(bare(window, l))),
+        ),
         (
             "ferrolink, blocking",
             Box::new(move |l| Some(ours_blocking(window, l))),
@@ -440,10 +495,14 @@ fn main() {
         match run(&log) {
             Some(r) => {
                 let (p50, p99) = latency(&r, &log);
+                let (first, arm) = if r.first_position_ns == 0 {
+                    ("–".to_owned(), "–".to_owned())
+                } else {
+                    let first = r.first_position_ns.saturating_sub(started_ns(&log)) as f64 / 1e6;
+                    (format!("{first:.1} ms"), format!("{:.1} ms", r.arm_s * 1e3))
+                };
                 println!(
-                    "| {name} | {:.0} ms | {:.1} ms | {:.0} | {:.1} ms | {p50:.0} µs | {p99:.0} µs |",
-                    r.first_position_s * 1e3,
-                    r.arm_s * 1e3,
+                    "| {name} | {first} | {arm} | {:.0} | {:.1} ms | {p50:.0} µs | {p99:.0} µs |",
                     r.updates as f64 / r.window_s,
                     r.cpu_s * 1e6 / r.updates.max(1) as f64,
                 );
