@@ -86,10 +86,58 @@ fn connect(port: u16) -> (Connection, services::Peer) {
     (link, peer)
 }
 
-/// On a shared connection a 1,000-parameter fetch runs beside a telemetry subscriber, and
-/// costs it no frame: every ATTITUDE another system sends at 200 Hz meanwhile arrives.
-#[test]
-fn telemetry_keeps_flowing_during_a_parameter_fetch() {
+/// UDP between a vehicle (which sends to the returned port) and port `to`, losing `loss` of the
+/// datagrams each way by a seeded generator, until `stop`.
+fn relay(to: u16, loss: f64, stop: &Arc<AtomicBool>) -> u16 {
+    use std::net::UdpSocket;
+    let near = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let far = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let port = near.local_addr().unwrap().port();
+    let vehicle = Arc::new(std::sync::Mutex::new(None));
+    for (from, into, seed, back) in [
+        (
+            near.try_clone().unwrap(),
+            far.try_clone().unwrap(),
+            7u64,
+            false,
+        ),
+        (far, near, 11u64, true),
+    ] {
+        let (stop, vehicle) = (stop.clone(), vehicle.clone());
+        from.set_read_timeout(Some(Duration::from_millis(100)))
+            .unwrap();
+        std::thread::spawn(move || {
+            let mut state = seed;
+            let mut buf = [0u8; 65536];
+            while !stop.load(Ordering::Relaxed) {
+                let Ok((n, src)) = from.recv_from(&mut buf) else {
+                    continue;
+                };
+                // A 64-bit LCG: the same losses every run.
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let lost = ((state >> 33) as f64 / (1u64 << 31) as f64) < loss;
+                let dest = if back {
+                    *vehicle.lock().unwrap()
+                } else {
+                    *vehicle.lock().unwrap() = Some(src);
+                    Some(std::net::SocketAddr::from(([127, 0, 0, 1], to)))
+                };
+                if let (false, Some(dest)) = (lost, dest) {
+                    let _ = into.send_to(&buf[..n], dest);
+                }
+            }
+        });
+    }
+    port
+}
+
+/// A 1,000-parameter PX4 vehicle talking to a shared connection (through a relay that loses
+/// `loss` of the datagrams each way, when above 0), another system's ATTITUDE at 200 Hz sent
+/// straight to it, and `work` done by the services' client meanwhile: every ATTITUDE must
+/// arrive, in order, none lost to the work.
+fn telemetry_during(loss: f64, work: impl FnOnce(&mut Remote<'_>)) -> u32 {
     use ferrolink_dialects::common::{Attitude, Message as Common};
     use ferrolink_io::mavlink::{Filter, SharedConnection};
     use ferrolink_runtime::mavlink::Dialect;
@@ -102,7 +150,12 @@ fn telemetry_keeps_flowing_during_a_parameter_fetch() {
     let params = (0..1000)
         .map(|i| param(&format!("P{i}"), Value::I32(i)))
         .collect();
-    let vehicle = vehicle_at(params, None, format!("udpout://127.0.0.1:{port}"), &stop);
+    let to = if loss > 0.0 {
+        relay(port, loss, &stop)
+    } else {
+        port
+    };
+    let vehicle = vehicle_at(params, None, format!("udpout://127.0.0.1:{to}"), &stop);
     // Telemetry from another system (a camera, say), on a socket of its own, at 200 Hz.
     let telemetry =
         SharedConnection::open(&format!("udpout://127.0.0.1:{port}"), Common::META).unwrap();
@@ -128,14 +181,7 @@ fn telemetry_keeps_flowing_during_a_parameter_fetch() {
         .unwrap()
         .expect("the vehicle");
     let mut remote = Remote::on(&link, peer);
-    let list = remote
-        .fetch_params(Duration::from_secs(30), |_| {})
-        .unwrap();
-    assert_eq!((list.count, list.missing()), (1000, 0));
-    assert_eq!(
-        list.get("P999").and_then(|p| p.value),
-        Some(Value::I32(999))
-    );
+    work(&mut remote);
     std::thread::sleep(Duration::from_millis(200));
     stop.store(true, Ordering::Relaxed);
     let sent = sender.join().unwrap();
@@ -147,13 +193,62 @@ fn telemetry_keeps_flowing_during_a_parameter_fetch() {
         };
         got.push(a.time_boot_ms);
     }
-    assert!(sent > 20, "the fetch took {sent} telemetry periods");
+    assert!(sent > 20, "the work took {sent} telemetry periods");
     assert_eq!(
         got,
         (0..sent).collect::<Vec<_>>(),
         "every ATTITUDE, in order"
     );
     assert_eq!((attitude.dropped(), remote.dropped()), (0, 0));
+    sent
+}
+
+/// On a shared connection a 1,000-parameter fetch runs beside a telemetry subscriber, and
+/// costs it no frame: every ATTITUDE another system sends at 200 Hz meanwhile arrives.
+#[test]
+fn telemetry_keeps_flowing_during_a_parameter_fetch() {
+    telemetry_during(0.0, |remote| {
+        let list = remote
+            .fetch_params(Duration::from_secs(30), |_| {})
+            .unwrap();
+        assert_eq!((list.count, list.missing()), (1000, 0));
+        assert_eq!(
+            list.get("P999").and_then(|p| p.value),
+            Some(Value::I32(999))
+        );
+    });
+}
+
+/// The same through a link that loses 20 % each way: a 1,000-parameter fetch and a 500-item
+/// mission upload both complete, and every ATTITUDE sent meanwhile arrives.
+#[test]
+fn telemetry_keeps_flowing_during_lossy_transfers() {
+    use ferrolink_runtime::mavlink::service::messages::{
+        MavCmd, MavFrame, MavMissionResult, MavMissionType,
+    };
+    use ferrolink_runtime::mavlink::service::mission::Item;
+    let sent = telemetry_during(0.2, |remote| {
+        let list = remote
+            .fetch_params(Duration::from_secs(60), |_| {})
+            .unwrap();
+        assert_eq!((list.count, list.missing()), (1000, 0));
+        let items: Vec<Item> = (0..500)
+            .map(|i| Item {
+                frame: MavFrame::GlobalRelativeAlt,
+                command: MavCmd::NavWaypoint,
+                autocontinue: 1,
+                x: 473_977_420 + i,
+                y: 85_455_940,
+                z: 20.0,
+                ..Default::default()
+            })
+            .collect();
+        let result = remote
+            .upload_mission(MavMissionType::Mission, &items, |_, _| {})
+            .unwrap();
+        assert_eq!(result, Some(MavMissionResult::MavMissionAccepted));
+    });
+    eprintln!("{sent} ATTITUDE at 200 Hz through a 1,000-parameter fetch and a 500-item upload at 20 % loss: every one arrived");
 }
 
 #[test]
