@@ -25,9 +25,22 @@ fn run(extra: &[&str]) {
     common::require_no_skip(&stdout, "FERROLINK_REQUIRE_GCS", "mavsdk");
 }
 
+/// examples/fly's program, for the API's async face, when it is built (`cargo test
+/// --workspace` builds it).
+fn fly() -> Option<String> {
+    let path = std::path::Path::new(common::ferrolink()).with_file_name("ferrolink-example-fly");
+    path.exists().then(|| path.to_string_lossy().into_owned())
+}
+
 #[test]
 fn mavsdk_flies_our_vehicle_and_our_api_drives_mavsdks() {
-    run(&[]);
+    match fly() {
+        Some(fly) => run(&["--fly", &fly]),
+        None => {
+            eprintln!("examples/fly is not built: the async face's check is left out");
+            run(&[]);
+        }
+    }
 }
 
 #[test]

@@ -19,7 +19,8 @@ whose process dies of a signal is run once more):
   ours_against_mavsdk_servers
         our ``telemetry`` and ``action`` commands (the vehicle API, blocking) against a vehicle
         built from MAVSDK's TelemetryServer and ActionServer: the position, battery and GPS
-        MAVSDK publishes arrive equal; its action server sees our arm and take-off.
+        MAVSDK publishes arrive equal; its action server sees our arm and take-off; and with
+        ``--fly BIN`` (examples/fly's program), the async face's arm and take-off too.
 
 ``--loss P`` puts a relay that loses P of the datagrams both ways between the two sides of
 the flying checks: every action must still end with its true result.
@@ -372,11 +373,27 @@ async def check_ours_against_mavsdk_servers(args):
                     raise CheckFailed("action %s exited %d: %s %s" % (act, rc, out, err))
             await until("MAVSDK's action server saw arm and take-off",
                         lambda: {"arm", "takeoff"} <= {e[0] for e in events}, 5)
+            # The API's async face (examples/fly --async): discovery, the position, arm and
+            # take-off, against the same MAVSDK vehicle.
+            if args.fly:
+                events.clear()
+                proc = await asyncio.create_subprocess_exec(
+                    args.fly, uri, "--async", stdout=asyncio.subprocess.PIPE,
+                    stderr=asyncio.subprocess.PIPE)
+                out, err = await asyncio.wait_for(proc.communicate(), 60)
+                text = out.decode()
+                if (proc.returncode != 0 or "lat: %s" % lat not in text
+                        or "arm: Accepted" not in text or "takeoff: Accepted" not in text):
+                    raise CheckFailed("the async face: exit %d: %s %s"
+                                      % (proc.returncode, text, err.decode()))
+                await until("MAVSDK's action server saw the async arm and take-off",
+                            lambda: {"arm", "takeoff"} <= {e[0] for e in events}, 5)
         finally:
             for t in tasks:
                 t.cancel()
-    return ("position, battery and GPS equal to what MAVSDK published; its action server saw %s"
-            % ", ".join(sorted({e[0] for e in events})))
+    return ("position, battery and GPS equal to what MAVSDK published; its action server saw "
+            "%s%s" % (", ".join(sorted({e[0] for e in events})),
+                      ", blocking and async" if args.fly else ""))
 
 
 CHECKS = {
@@ -413,6 +430,7 @@ def main():
     ap.add_argument("--only", action="append", default=[])
     ap.add_argument("--seed", type=int, default=20261129)
     ap.add_argument("--loss", type=float, default=0.0)
+    ap.add_argument("--fly", help="examples/fly's program, for the API's async face")
     ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     args.ferrolink = os.path.abspath(args.ferrolink)
@@ -423,7 +441,8 @@ def main():
     names = [n for n in CHECKS if not only or n in only]
     argv = {n: [sys.executable, os.path.abspath(__file__), "--ferrolink", args.ferrolink,
                 "--workdir", os.path.join(args.workdir, n), "--seed", str(args.seed),
-                "--loss", str(args.loss), "--only", n, "--child"] for n in names}
+                "--loss", str(args.loss), "--only", n, "--child"]
+            + (["--fly", args.fly] if args.fly else []) for n in names}
     # They mostly wait on the vehicle's flight: all at once.
     children = {n: subprocess.Popen(argv[n]) for n in names}
     passed = failed = 0
