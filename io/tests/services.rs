@@ -374,32 +374,47 @@ fn the_async_client_does_what_the_blocking_one_does() {
     let (link, peer) = connect(port);
     let remote = AsyncRemote::new(link, peer);
     let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_time()
         .build()
         .unwrap();
     runtime.block_on(async {
         // Two at once take turns on the connection.
+        let mut sizes = Vec::new();
         let (params, file) = tokio::join!(
-            remote.fetch_params(Duration::from_secs(10)),
-            remote.ftp_get("/f.txt".into())
+            remote.fetch_params(Duration::from_secs(10), |_| {}),
+            remote.ftp_get("/f.txt", |done, size| sizes.push((done, size)))
         );
         assert_eq!(params.unwrap().missing(), 0);
         assert_eq!(file.unwrap(), b"hello");
+        assert_eq!(sizes.last(), Some(&(5, 5)), "progress, async too");
+        // The connection's heartbeat has its thread by now; operations start none.
+        let threads = || std::fs::read_dir("/proc/self/task").map_or(0, |d| d.count());
+        let before = threads();
         let arm = Command::long(
             MavCmd::ComponentArmDisarm,
             [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         );
-        let ack = remote.command(arm).await.unwrap().expect("an answer");
+        let ack = remote
+            .command(arm, |_| {})
+            .await
+            .unwrap()
+            .expect("an answer");
         assert_eq!(ack.result, MavResult::Accepted);
         let items = vec![Item::default(); 12];
         remote
-            .upload_mission(MavMissionType::Mission, items.clone())
+            .upload_mission(MavMissionType::Mission, &items, |_, _| {})
             .await
             .unwrap();
         let back = remote
-            .download_mission(MavMissionType::Mission)
+            .download_mission(MavMissionType::Mission, |_, _| {})
             .await
             .unwrap();
         assert_eq!(back.map(|b| b.len()), Some(12));
+        let after = threads();
+        assert!(
+            after <= before,
+            "no thread per operation: {before} then {after}"
+        );
     });
     stop.store(true, Ordering::Relaxed);
     thread.join().unwrap();

@@ -25,6 +25,7 @@ use std::path::{Component, Path, PathBuf};
 use ferrolink_runtime::mavlink::service::ftp::{self, entries, Entry, EntryKind, FileSystem, Nak};
 
 use super::services::Remote;
+use super::wait::{block_on, Blocking, Wait};
 
 /// A directory served as the file system: every path is taken below it, and nothing outside
 /// it is read or written (`..`, and links that lead out, are refused).
@@ -241,8 +242,9 @@ impl Remote<'_> {
     /// Runs an FTP operation to its end; `on` sees each event, `progress` each change of
     /// (bytes transferred, size) while reading or writing. Uploads take their bytes from
     /// `source`.
-    fn run_ftp(
+    async fn run_ftp(
         &mut self,
+        wait: &impl Wait,
         client: &mut ftp::Client,
         source: &mut [u8],
         mut on: impl FnMut(&ftp::Event),
@@ -278,7 +280,7 @@ impl Remote<'_> {
                 .poll_timeout()
                 .unwrap_or(now + 1_000_000)
                 .max(now + 1);
-            if let Some((from, msg)) = self.next(until)? {
+            if let Some((from, msg)) = self.next(wait, until).await? {
                 client.handle(self.now_us(), from, &msg);
             }
         }
@@ -286,6 +288,15 @@ impl Remote<'_> {
 
     /// The entries of directory `path` on the target, in its order.
     pub fn ftp_list(&mut self, path: &str) -> io::Result<Vec<ListEntry>> {
+        block_on(self.ftp_list_with(&Blocking, path))
+    }
+
+    /// [`Remote::ftp_list`], waiting with `wait`.
+    pub async fn ftp_list_with(
+        &mut self,
+        wait: &impl Wait,
+        path: &str,
+    ) -> io::Result<Vec<ListEntry>> {
         let mut client = self.ftp_client();
         let _ = client.list(self.now_us(), path);
         let mut out = Vec::new();
@@ -302,12 +313,23 @@ impl Remote<'_> {
                 );
             }
         };
-        self.run_ftp(&mut client, &mut [], on, |_, _| {})?;
+        self.run_ftp(wait, &mut client, &mut [], on, |_, _| {})
+            .await?;
         Ok(out)
     }
 
     /// Reads file `path` from the target; `progress` sees (bytes received, size).
     pub fn ftp_get(&mut self, path: &str, progress: impl FnMut(u32, u32)) -> io::Result<Vec<u8>> {
+        block_on(self.ftp_get_with(&Blocking, path, progress))
+    }
+
+    /// [`Remote::ftp_get`], waiting with `wait`.
+    pub async fn ftp_get_with(
+        &mut self,
+        wait: &impl Wait,
+        path: &str,
+        progress: impl FnMut(u32, u32),
+    ) -> io::Result<Vec<u8>> {
         let mut client = self.ftp_client();
         let _ = client.read(self.now_us(), path);
         let mut data = Vec::new();
@@ -322,7 +344,8 @@ impl Remote<'_> {
             }
             _ => {}
         };
-        self.run_ftp(&mut client, &mut [], on, progress)?;
+        self.run_ftp(wait, &mut client, &mut [], on, progress)
+            .await?;
         Ok(data)
     }
 
@@ -334,55 +357,101 @@ impl Remote<'_> {
         data: &[u8],
         progress: impl FnMut(u32, u32),
     ) -> io::Result<()> {
+        block_on(self.ftp_put_with(&Blocking, path, data, progress))
+    }
+
+    /// [`Remote::ftp_put`], waiting with `wait`.
+    pub async fn ftp_put_with(
+        &mut self,
+        wait: &impl Wait,
+        path: &str,
+        data: &[u8],
+        progress: impl FnMut(u32, u32),
+    ) -> io::Result<()> {
         let size = u32::try_from(data.len())
             .map_err(|_| io::Error::other("a file over 4 GiB cannot go over MAVLink FTP"))?;
         let mut client = self.ftp_client();
         let _ = client.write(self.now_us(), path, size);
         let mut source = data.to_vec();
-        self.run_ftp(&mut client, &mut source, |_| {}, progress)
+        self.run_ftp(wait, &mut client, &mut source, |_| {}, progress)
+            .await
             .map(drop)
     }
 
     /// The CRC-32 of file `path` on the target, as the target computes it.
     pub fn ftp_crc32(&mut self, path: &str) -> io::Result<u32> {
+        block_on(self.ftp_crc32_with(&Blocking, path))
+    }
+
+    /// [`Remote::ftp_crc32`], waiting with `wait`.
+    pub async fn ftp_crc32_with(&mut self, wait: &impl Wait, path: &str) -> io::Result<u32> {
         let mut client = self.ftp_client();
         let _ = client.crc32(self.now_us(), path);
-        let crc = self.run_ftp(&mut client, &mut [], |_| {}, |_, _| {})?;
+        let crc = self
+            .run_ftp(wait, &mut client, &mut [], |_| {}, |_, _| {})
+            .await?;
         crc.ok_or_else(|| io::Error::other("the CRC-32 reply held no value"))
     }
 
     /// Removes file `path` on the target.
     pub fn ftp_remove(&mut self, path: &str) -> io::Result<()> {
+        block_on(self.ftp_remove_with(&Blocking, path))
+    }
+
+    /// [`Remote::ftp_remove`], waiting with `wait`.
+    pub async fn ftp_remove_with(&mut self, wait: &impl Wait, path: &str) -> io::Result<()> {
         let now = self.now_us();
-        self.ftp_simple(|c| c.remove(now, path))
+        self.ftp_simple(wait, |c| c.remove(now, path)).await
     }
 
     /// Creates directory `path` on the target.
     pub fn ftp_mkdir(&mut self, path: &str) -> io::Result<()> {
+        block_on(self.ftp_mkdir_with(&Blocking, path))
+    }
+
+    /// [`Remote::ftp_mkdir`], waiting with `wait`.
+    pub async fn ftp_mkdir_with(&mut self, wait: &impl Wait, path: &str) -> io::Result<()> {
         let now = self.now_us();
-        self.ftp_simple(|c| c.create_dir(now, path))
+        self.ftp_simple(wait, |c| c.create_dir(now, path)).await
     }
 
     /// Removes directory `path` (empty) on the target.
     pub fn ftp_rmdir(&mut self, path: &str) -> io::Result<()> {
+        block_on(self.ftp_rmdir_with(&Blocking, path))
+    }
+
+    /// [`Remote::ftp_rmdir`], waiting with `wait`.
+    pub async fn ftp_rmdir_with(&mut self, wait: &impl Wait, path: &str) -> io::Result<()> {
         let now = self.now_us();
-        self.ftp_simple(|c| c.remove_dir(now, path))
+        self.ftp_simple(wait, |c| c.remove_dir(now, path)).await
     }
 
     /// Renames `from` to `to` on the target.
     pub fn ftp_rename(&mut self, from: &str, to: &str) -> io::Result<()> {
+        block_on(self.ftp_rename_with(&Blocking, from, to))
+    }
+
+    /// [`Remote::ftp_rename`], waiting with `wait`.
+    pub async fn ftp_rename_with(
+        &mut self,
+        wait: &impl Wait,
+        from: &str,
+        to: &str,
+    ) -> io::Result<()> {
         let now = self.now_us();
-        self.ftp_simple(|c| c.rename(now, from, to))
+        self.ftp_simple(wait, |c| c.rename(now, from, to)).await
     }
 
     /// Runs an operation of one request and its answer, started by `start`.
-    fn ftp_simple(
+    async fn ftp_simple(
         &mut self,
+        wait: &impl Wait,
         start: impl FnOnce(&mut ftp::Client) -> Result<(), ferrolink_runtime::mavlink::service::Busy>,
     ) -> io::Result<()> {
         let mut client = self.ftp_client();
         let _ = start(&mut client);
-        self.run_ftp(&mut client, &mut [], |_| {}, |_, _| {})
+        self.run_ftp(wait, &mut client, &mut [], |_| {}, |_, _| {})
+            .await
             .map(drop)
     }
 }

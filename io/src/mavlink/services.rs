@@ -32,6 +32,8 @@ use ferrolink_runtime::mavlink::service::peers::Peers;
 use ferrolink_runtime::mavlink::service::Address;
 use ferrolink_runtime::mavlink::{Dialect, MessageMeta};
 
+#[cfg(feature = "tokio")]
+use super::wait::Tokio;
 use super::wait::{block_on, Blocking, Wait};
 use super::{Connection, Filter, OwnHeartbeat, SharedConnection, Subscription};
 
@@ -263,13 +265,17 @@ impl<'c> Remote<'c> {
     }
 
     /// The next service message from the target's system, or `None` at `until_us`.
-    pub(super) fn next(&mut self, until_us: u64) -> io::Result<Option<(Address, Message)>> {
+    pub(super) async fn next(
+        &mut self,
+        wait: &impl Wait,
+        until_us: u64,
+    ) -> io::Result<Option<(Address, Message)>> {
         let exchange = Exchange {
             link: self.link,
             replies: &self.replies,
             start: self.start,
         };
-        block_on(exchange.next(&Blocking, until_us))
+        exchange.next(wait, until_us).await
     }
 
     pub(super) fn send(&mut self, msg: &Message) -> io::Result<()> {
@@ -289,6 +295,16 @@ impl<'c> Remote<'c> {
         command: Command,
         progress: impl FnMut(u8),
     ) -> io::Result<Option<Ack>> {
+        block_on(self.command_with(&Blocking, command, progress))
+    }
+
+    /// [`Remote::command`], waiting with `wait`.
+    pub async fn command_with(
+        &mut self,
+        wait: &impl Wait,
+        command: Command,
+        progress: impl FnMut(u8),
+    ) -> io::Result<Option<Ack>> {
         let exchange = Exchange {
             link: self.link,
             replies: &self.replies,
@@ -296,9 +312,7 @@ impl<'c> Remote<'c> {
         };
         let config = self.command_config;
         let target = self.target.address;
-        block_on(run_command(
-            &exchange, &Blocking, config, target, command, progress,
-        ))
+        run_command(&exchange, wait, config, target, command, progress).await
     }
 
     fn param_client(&self) -> param::Client<2048> {
@@ -315,8 +329,9 @@ impl<'c> Remote<'c> {
     }
 
     /// Runs a parameter operation until its event, or until `timeout` passes (`None`).
-    fn run_param(
+    async fn run_param(
         &mut self,
+        wait: &impl Wait,
         client: &mut param::Client<2048>,
         timeout: Option<Duration>,
         mut on_value: impl FnMut(&Received),
@@ -335,7 +350,7 @@ impl<'c> Remote<'c> {
             }
             let until = client.poll_timeout().unwrap_or(now + 1_000_000).max(now);
             let until = end.map_or(until, |end| until.min(end));
-            if let Some((from, msg)) = self.next(until.max(now + 1))? {
+            if let Some((from, msg)) = self.next(wait, until.max(now + 1)).await? {
                 if let Some(r) = client.handle(self.now_us(), from, &msg) {
                     on_value(&r);
                 }
@@ -348,16 +363,27 @@ impl<'c> Remote<'c> {
     pub fn fetch_params(
         &mut self,
         timeout: Duration,
+        on_value: impl FnMut(&Received),
+    ) -> io::Result<ParamList> {
+        block_on(self.fetch_params_with(&Blocking, timeout, on_value))
+    }
+
+    /// [`Remote::fetch_params`], waiting with `wait`.
+    pub async fn fetch_params_with(
+        &mut self,
+        wait: &impl Wait,
+        timeout: Duration,
         mut on_value: impl FnMut(&Received),
     ) -> io::Result<ParamList> {
         let mut client = self.param_client();
         let _ = client.list();
         let mut list = ParamList::default();
-        self.run_param(&mut client, Some(timeout), |r| {
+        self.run_param(wait, &mut client, Some(timeout), |r| {
             if list.take(r) {
                 on_value(r);
             }
-        })?;
+        })
+        .await?;
         list.hash = client.announced_hash();
         Ok(list)
     }
@@ -367,16 +393,28 @@ impl<'c> Remote<'c> {
     /// parameter into `cache` (`true`), as [`Remote::fetch_params`] does. A target without
     /// `_HASH_CHECK` is always fetched.
     pub fn refresh_params(&mut self, cache: &mut ParamList, timeout: Duration) -> io::Result<bool> {
+        block_on(self.refresh_params_with(&Blocking, cache, timeout))
+    }
+
+    /// [`Remote::refresh_params`], waiting with `wait`.
+    pub async fn refresh_params_with(
+        &mut self,
+        wait: &impl Wait,
+        cache: &mut ParamList,
+        timeout: Duration,
+    ) -> io::Result<bool> {
         let Some(hash) = cache.hash.filter(|_| cache.missing() == 0) else {
-            *cache = self.fetch_params(timeout, |_| {})?;
+            *cache = self.fetch_params_with(wait, timeout, |_| {}).await?;
             return Ok(true);
         };
         let mut client = self.param_client();
         let _ = client.list_unless(hash);
         let mut list = ParamList::default();
-        let event = self.run_param(&mut client, Some(timeout), |r| {
-            list.take(r);
-        })?;
+        let event = self
+            .run_param(wait, &mut client, Some(timeout), |r| {
+                list.take(r);
+            })
+            .await?;
         // The stop goes out before this returns.
         while let Some(m) = client.poll_transmit(self.now_us()) {
             self.send(&m)?;
@@ -391,9 +429,18 @@ impl<'c> Remote<'c> {
 
     /// Reads the parameter called `name`; `None` if nothing answered.
     pub fn read_param(&mut self, name: &str) -> io::Result<Option<Received>> {
+        block_on(self.read_param_with(&Blocking, name))
+    }
+
+    /// [`Remote::read_param`], waiting with `wait`.
+    pub async fn read_param_with(
+        &mut self,
+        wait: &impl Wait,
+        name: &str,
+    ) -> io::Result<Option<Received>> {
         let mut client = self.param_client();
         let _ = client.read(Name::from(name));
-        match self.run_param(&mut client, None, |_| {})? {
+        match self.run_param(wait, &mut client, None, |_| {}).await? {
             Some(param::Event::Read(r)) => Ok(r),
             _ => Ok(None),
         }
@@ -402,30 +449,55 @@ impl<'c> Remote<'c> {
     /// Sets the parameter called `name` to `value` and returns what the target reports it holds
     /// then (the set took if that is `value`); `None` if nothing answered.
     pub fn set_param(&mut self, name: &str, value: Value) -> io::Result<Option<Received>> {
+        block_on(self.set_param_with(&Blocking, name, value))
+    }
+
+    /// [`Remote::set_param`], waiting with `wait`.
+    pub async fn set_param_with(
+        &mut self,
+        wait: &impl Wait,
+        name: &str,
+        value: Value,
+    ) -> io::Result<Option<Received>> {
         let mut client = self.param_client();
         let _ = client.set(Name::from(name), value);
-        self.run_set(&mut client)
+        self.run_set(wait, &mut client).await
     }
 
     /// Sets the PARAM_EXT CUSTOM parameter called `name` to `bytes` (at most 128, NUL-padded),
     /// in PARAM_EXT_* whatever `param_config.protocol` says; what the target acknowledged is in
     /// [`Received::custom`] (`None` in it: refused). `None` if nothing answered.
     pub fn set_param_custom(&mut self, name: &str, bytes: &[u8]) -> io::Result<Option<Received>> {
-        let mut client = self.param_client_in(param::Protocol::Ext);
-        let _ = client.set_custom(Name::from(name), param::Bytes::from_bytes(bytes));
-        self.run_set(&mut client)
+        block_on(self.set_param_custom_with(&Blocking, name, bytes))
     }
 
-    fn run_set(&mut self, client: &mut param::Client<2048>) -> io::Result<Option<Received>> {
-        match self.run_param(client, None, |_| {})? {
+    /// [`Remote::set_param_custom`], waiting with `wait`.
+    pub async fn set_param_custom_with(
+        &mut self,
+        wait: &impl Wait,
+        name: &str,
+        bytes: &[u8],
+    ) -> io::Result<Option<Received>> {
+        let mut client = self.param_client_in(param::Protocol::Ext);
+        let _ = client.set_custom(Name::from(name), param::Bytes::from_bytes(bytes));
+        self.run_set(wait, &mut client).await
+    }
+
+    async fn run_set(
+        &mut self,
+        wait: &impl Wait,
+        client: &mut param::Client<2048>,
+    ) -> io::Result<Option<Received>> {
+        match self.run_param(wait, client, None, |_| {}).await? {
             Some(param::Event::Set(r)) => Ok(r),
             _ => Ok(None),
         }
     }
 
     /// Runs a mission operation to its end; `progress` sees (items done, items in all).
-    fn run_mission(
+    async fn run_mission(
         &mut self,
+        wait: &impl Wait,
         client: &mut mission::Client,
         items: &mut Items,
         mut progress: impl FnMut(u16, u16),
@@ -453,7 +525,7 @@ impl<'c> Remote<'c> {
                 .poll_timeout()
                 .unwrap_or(now + 1_000_000)
                 .max(now + 1);
-            if let Some((from, msg)) = self.next(until)? {
+            if let Some((from, msg)) = self.next(wait, until).await? {
                 client.handle(items, self.now_us(), from, &msg);
                 if let Message::MissionItemInt(i) = &msg {
                     progress(i.seq + 1, items.0.len() as u16);
@@ -469,6 +541,17 @@ impl<'c> Remote<'c> {
         &mut self,
         kind: MavMissionType,
         items: &[Item],
+        progress: impl FnMut(u16, u16),
+    ) -> io::Result<Option<MavMissionResult>> {
+        block_on(self.upload_mission_with(&Blocking, kind, items, progress))
+    }
+
+    /// [`Remote::upload_mission`], waiting with `wait`.
+    pub async fn upload_mission_with(
+        &mut self,
+        wait: &impl Wait,
+        kind: MavMissionType,
+        items: &[Item],
         mut progress: impl FnMut(u16, u16),
     ) -> io::Result<Option<MavMissionResult>> {
         let count = u16::try_from(items.len()).map_err(|_| {
@@ -482,7 +565,10 @@ impl<'c> Remote<'c> {
         for _ in 0..self.mission_attempts.max(1) {
             let mut client = mission::Client::new(self.mission_config, self.target.address);
             let _ = client.upload(kind, count);
-            result = match self.run_mission(&mut client, &mut items, &mut progress)? {
+            result = match self
+                .run_mission(wait, &mut client, &mut items, &mut progress)
+                .await?
+            {
                 mission::Event::Uploaded(result) => result,
                 _ => None,
             };
@@ -499,9 +585,21 @@ impl<'c> Remote<'c> {
     /// Clears every item of `kind` on the target (`All`: every kind); the target's answer,
     /// `None` when it did not answer.
     pub fn clear_mission(&mut self, kind: MavMissionType) -> io::Result<Option<MavMissionResult>> {
+        block_on(self.clear_mission_with(&Blocking, kind))
+    }
+
+    /// [`Remote::clear_mission`], waiting with `wait`.
+    pub async fn clear_mission_with(
+        &mut self,
+        wait: &impl Wait,
+        kind: MavMissionType,
+    ) -> io::Result<Option<MavMissionResult>> {
         let mut client = mission::Client::new(self.mission_config, self.target.address);
         let _ = client.clear(kind);
-        match self.run_mission(&mut client, &mut Items::default(), |_, _| {})? {
+        match self
+            .run_mission(wait, &mut client, &mut Items::default(), |_, _| {})
+            .await?
+        {
             mission::Event::Cleared(result) => Ok(result),
             _ => Ok(None),
         }
@@ -510,9 +608,21 @@ impl<'c> Remote<'c> {
     /// Makes `seq` the target's current mission item; the current item it then reports,
     /// `None` when it did not answer.
     pub fn set_current_mission_item(&mut self, seq: u16) -> io::Result<Option<u16>> {
+        block_on(self.set_current_mission_item_with(&Blocking, seq))
+    }
+
+    /// [`Remote::set_current_mission_item`], waiting with `wait`.
+    pub async fn set_current_mission_item_with(
+        &mut self,
+        wait: &impl Wait,
+        seq: u16,
+    ) -> io::Result<Option<u16>> {
         let mut client = mission::Client::new(self.mission_config, self.target.address);
         let _ = client.set_current(seq);
-        match self.run_mission(&mut client, &mut Items::default(), |_, _| {})? {
+        match self
+            .run_mission(wait, &mut client, &mut Items::default(), |_, _| {})
+            .await?
+        {
             mission::Event::CurrentSet(current) => Ok(current),
             _ => Ok(None),
         }
@@ -523,14 +633,25 @@ impl<'c> Remote<'c> {
     pub fn download_mission(
         &mut self,
         kind: MavMissionType,
+        progress: impl FnMut(u16, u16),
+    ) -> io::Result<Option<Vec<Item>>> {
+        block_on(self.download_mission_with(&Blocking, kind, progress))
+    }
+
+    /// [`Remote::download_mission`], waiting with `wait`.
+    pub async fn download_mission_with(
+        &mut self,
+        wait: &impl Wait,
+        kind: MavMissionType,
         mut progress: impl FnMut(u16, u16),
     ) -> io::Result<Option<Vec<Item>>> {
         for _ in 0..self.mission_attempts.max(1) {
             let mut client = mission::Client::new(self.mission_config, self.target.address);
             let _ = client.download(kind);
             let mut items = Items(Vec::new());
-            if let mission::Event::Downloaded(Some(_)) =
-                self.run_mission(&mut client, &mut items, &mut progress)?
+            if let mission::Event::Downloaded(Some(_)) = self
+                .run_mission(wait, &mut client, &mut items, &mut progress)
+                .await?
             {
                 return Ok(Some(items.0));
             }
@@ -630,40 +751,46 @@ impl mission::Items for Items {
     }
 }
 
-/// The client from async code (feature `tokio`; any runtime, or none: the futures wait on
-/// tokio's channels only). Each operation runs [`Remote`]'s blocking client on a thread of its
-/// own and the future waits for its answer, so a slow or lossy link never blocks the executor.
-/// Operations on one `AsyncRemote` take turns on its connection; one whose future is dropped
-/// still runs to its end before the next starts.
+/// The client from async code (feature `tokio`): the same drive loops as [`Remote`]'s, waiting
+/// on tokio's timer (run them inside a tokio runtime with time enabled), so no thread runs for
+/// any operation. It shares the connection: everything else on it keeps flowing. Operations on
+/// one `AsyncRemote` take turns, as the protocols want one transfer of a kind at a time.
 ///
 /// ```no_run
 /// # async fn example() -> std::io::Result<()> {
 /// use std::time::Duration;
 /// use ferrolink_io::mavlink::services::{self, AsyncRemote};
-/// use ferrolink_io::mavlink::Connection;
+/// use ferrolink_io::mavlink::SharedConnection;
 ///
-/// let mut link = Connection::open("udpin://0.0.0.0:14550", services::TABLE)?;
-/// let vehicle = services::wait_for_vehicle(&mut link, Duration::from_secs(5))?
+/// let link = SharedConnection::open("udpin://0.0.0.0:14550", services::TABLE)?;
+/// let vehicle = services::wait_for_vehicle_on(&link, Duration::from_secs(5))?
 ///     .expect("no vehicle");
-/// let remote = AsyncRemote::new(link, vehicle);
-/// let params = remote.fetch_params(Duration::from_secs(30)).await?;
-/// let log = remote.run(|r| r.ftp_get("/logs/flight.bin", |_, _| {})).await?;
+/// let remote = AsyncRemote::on(link, vehicle);
+/// let params = remote.fetch_params(Duration::from_secs(30), |_| {}).await?;
+/// let log = remote.ftp_get("/logs/flight.bin", |done, size| eprint!("\r{done}/{size}")).await?;
 /// # Ok(()) }
 /// ```
 #[cfg(feature = "tokio")]
 #[derive(Debug, Clone)]
 pub struct AsyncRemote {
-    link: std::sync::Arc<std::sync::Mutex<Connection>>,
+    link: SharedConnection,
     target: Peer,
+    turn: std::sync::Arc<tokio::sync::Mutex<()>>,
 }
 
 #[cfg(feature = "tokio")]
 impl AsyncRemote {
-    /// `target` through `link`.
+    /// `target` through `link`'s shared connection.
     pub fn new(link: Connection, target: Peer) -> Self {
+        Self::on(link.shared().clone(), target)
+    }
+
+    /// `target` through a shared connection.
+    pub fn on(link: SharedConnection, target: Peer) -> Self {
         Self {
-            link: std::sync::Arc::new(std::sync::Mutex::new(link)),
+            link,
             target,
+            turn: std::sync::Arc::new(tokio::sync::Mutex::new(())),
         }
     }
 
@@ -672,65 +799,98 @@ impl AsyncRemote {
         self.target
     }
 
-    /// Runs `op` on a [`Remote`] for the target, on a thread of its own; any of its
-    /// operations, with progress callbacks that are `Send`.
-    pub async fn run<T, F>(&self, op: F) -> io::Result<T>
-    where
-        T: Send + 'static,
-        F: FnOnce(&mut Remote<'_>) -> io::Result<T> + Send + 'static,
-    {
-        let (tx, rx) = tokio::sync::oneshot::channel();
-        let (link, target) = (self.link.clone(), self.target);
-        std::thread::Builder::new()
-            .name("ferrolink-services".into())
-            .spawn(move || {
-                let mut link = link
-                    .lock()
-                    .unwrap_or_else(std::sync::PoisonError::into_inner);
-                let mut remote = Remote::new(&mut link, target);
-                let _ = tx.send(op(&mut remote));
-            })?;
-        rx.await
-            .map_err(|_| io::Error::other("the operation's thread ended without an answer"))?
+    /// [`Remote::fetch_params`].
+    pub async fn fetch_params(
+        &self,
+        timeout: Duration,
+        on_value: impl FnMut(&Received),
+    ) -> io::Result<ParamList> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.fetch_params_with(&Tokio, timeout, on_value).await
     }
 
-    /// [`Remote::fetch_params`].
-    pub async fn fetch_params(&self, timeout: Duration) -> io::Result<ParamList> {
-        self.run(move |r| r.fetch_params(timeout, |_| {})).await
+    /// [`Remote::read_param`].
+    pub async fn read_param(&self, name: &str) -> io::Result<Option<Received>> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.read_param_with(&Tokio, name).await
     }
 
     /// [`Remote::set_param`].
-    pub async fn set_param(&self, name: String, value: Value) -> io::Result<Option<Received>> {
-        self.run(move |r| r.set_param(&name, value)).await
+    pub async fn set_param(&self, name: &str, value: Value) -> io::Result<Option<Received>> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.set_param_with(&Tokio, name, value).await
     }
 
     /// [`Remote::command`].
-    pub async fn command(&self, command: Command) -> io::Result<Option<Ack>> {
-        self.run(move |r| r.command(command, |_| {})).await
+    pub async fn command(
+        &self,
+        command: Command,
+        progress: impl FnMut(u8),
+    ) -> io::Result<Option<Ack>> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.command_with(&Tokio, command, progress).await
     }
 
     /// [`Remote::upload_mission`].
     pub async fn upload_mission(
         &self,
         kind: MavMissionType,
-        items: Vec<Item>,
+        items: &[Item],
+        progress: impl FnMut(u16, u16),
     ) -> io::Result<Option<MavMissionResult>> {
-        self.run(move |r| r.upload_mission(kind, &items, |_, _| {}))
-            .await
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.upload_mission_with(&Tokio, kind, items, progress).await
     }
 
     /// [`Remote::download_mission`].
-    pub async fn download_mission(&self, kind: MavMissionType) -> io::Result<Option<Vec<Item>>> {
-        self.run(move |r| r.download_mission(kind, |_, _| {})).await
+    pub async fn download_mission(
+        &self,
+        kind: MavMissionType,
+        progress: impl FnMut(u16, u16),
+    ) -> io::Result<Option<Vec<Item>>> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.download_mission_with(&Tokio, kind, progress).await
+    }
+
+    /// [`Remote::clear_mission`].
+    pub async fn clear_mission(
+        &self,
+        kind: MavMissionType,
+    ) -> io::Result<Option<MavMissionResult>> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.clear_mission_with(&Tokio, kind).await
+    }
+
+    /// [`Remote::ftp_list`].
+    pub async fn ftp_list(&self, path: &str) -> io::Result<Vec<super::ftp::ListEntry>> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.ftp_list_with(&Tokio, path).await
     }
 
     /// [`Remote::ftp_get`].
-    pub async fn ftp_get(&self, path: String) -> io::Result<Vec<u8>> {
-        self.run(move |r| r.ftp_get(&path, |_, _| {})).await
+    pub async fn ftp_get(&self, path: &str, progress: impl FnMut(u32, u32)) -> io::Result<Vec<u8>> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.ftp_get_with(&Tokio, path, progress).await
     }
 
     /// [`Remote::ftp_put`].
-    pub async fn ftp_put(&self, path: String, data: Vec<u8>) -> io::Result<()> {
-        self.run(move |r| r.ftp_put(&path, &data, |_, _| {})).await
+    pub async fn ftp_put(
+        &self,
+        path: &str,
+        data: &[u8],
+        progress: impl FnMut(u32, u32),
+    ) -> io::Result<()> {
+        let _turn = self.turn.lock().await;
+        let mut r = Remote::on(&self.link, self.target);
+        r.ftp_put_with(&Tokio, path, data, progress).await
     }
 }
