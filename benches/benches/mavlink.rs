@@ -16,6 +16,7 @@
 //! library is generated from the same file as ours by pymavlink's mavgen and built with `cc`
 //! (`c/mavlink_c.c`); without pymavlink it is left out and the bench says so.
 
+#[allow(dead_code)]
 mod harness;
 
 #[allow(dead_code, clippy::all)]

@@ -20,6 +20,7 @@
 //! hits both alike), and the median batch of each is reported. The ratio is the operation's
 //! throughput over memcpy's: encode/memcpy and decode/memcpy. The runtime is built with its `fast-crc` feature (8 KiB table).
 
+#[allow(dead_code)]
 mod harness;
 
 use harness::{compare, BATCHES, BATCH_TARGET};

@@ -289,25 +289,13 @@ fn ours(loss: u32, root: &Path) -> Vec<Outcome> {
     out
 }
 
-fn python() -> PathBuf {
-    if let Some(p) = std::env::var_os("FERROLINK_PYTHON") {
-        return p.into();
-    }
-    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("../.venv/bin/python");
-    if venv.exists() {
-        venv
-    } else {
-        "python3".into()
-    }
-}
-
 fn script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/services/mavsdk_stack.py")
 }
 
 fn mavsdk(loss: u32, root: &Path, workdir: &Path) -> Option<Vec<Outcome>> {
     let port = free_port();
-    let mut vehicle: Child = Command::new(python())
+    let mut vehicle: Child = Command::new(harness::python())
         .arg(script())
         .args([
             "vehicle",
@@ -334,7 +322,7 @@ fn mavsdk(loss: u32, root: &Path, workdir: &Path) -> Option<Vec<Outcome>> {
         return None;
     }
     let relay = Relay::new(port, loss);
-    let client = Command::new(python())
+    let client = Command::new(harness::python())
         .arg(script())
         .args(["client", "--port", &relay.front.to_string()])
         .args([

@@ -15,6 +15,7 @@
 //!
 //! The ratio is memcpy's time over the node's. The same harness as the other benchmarks.
 
+#[allow(dead_code)]
 mod harness;
 
 use harness::{compare, BATCHES, BATCH_TARGET};

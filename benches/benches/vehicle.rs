@@ -36,7 +36,7 @@ mod harness;
 
 use std::io::{BufRead, Write};
 use std::net::UdpSocket;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -351,23 +351,11 @@ fn ours_async(window: f64, log: &Path) -> Result_ {
     })
 }
 
-fn python() -> PathBuf {
-    if let Some(p) = std::env::var_os("FERROLINK_PYTHON") {
-        return p.into();
-    }
-    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join("../.venv/bin/python");
-    if venv.exists() {
-        venv
-    } else {
-        "python3".into()
-    }
-}
-
 /// MAVSDK's ground station, or `None` when it cannot run (no mavsdk package).
 fn mavsdk(window: f64, log: &Path) -> Option<Result_> {
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/vehicle/mavsdk_telemetry.py");
     let port = ferrolink_test_support::free_port();
-    let mut gcs = Command::new(python())
+    let mut gcs = Command::new(harness::python())
         .arg(script)
         .args([port.to_string(), window.to_string()])
         .stdout(Stdio::piped())

@@ -42,14 +42,11 @@ import time
 
 sys.dont_write_bytecode = True  # keep the source tree clean
 from ports import free_port  # noqa: E402
+from services_mavsdk import CheckFailed, ferrolink, stop  # noqa: E402
 
 HOST = "127.0.0.1"
 HOME = (47.397742, 8.545594, 488.0)
 M_PER_DEG = 111_320.0
-
-
-class CheckFailed(Exception):
-    pass
 
 
 def metres(lat, lon, to_lat, to_lon):
@@ -114,15 +111,6 @@ async def start_vehicle(args, autopilot, port):
         proc.kill()
         raise CheckFailed("the vehicle did not start: %r" % line)
     return proc
-
-
-async def stop(proc):
-    if proc.returncode is None:
-        proc.terminate()
-        try:
-            await asyncio.wait_for(proc.wait(), 5)
-        except asyncio.TimeoutError:
-            proc.kill()
 
 
 async def until(what, cond, seconds):
@@ -291,18 +279,6 @@ async def check_mavsdk_flies_px4(args):
 
 async def check_mavsdk_flies_ardupilot(args):
     return await fly(args, "ardupilotmega")
-
-
-async def ferrolink(args, *argv, timeout=60):
-    proc = await asyncio.create_subprocess_exec(
-        args.ferrolink, "mavlink", *argv,
-        stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
-    try:
-        out, err = await asyncio.wait_for(proc.communicate(), timeout)
-    except asyncio.TimeoutError:
-        proc.kill()
-        raise CheckFailed("ferrolink mavlink %s took over %d s" % (" ".join(argv), timeout))
-    return proc.returncode, out.decode(), err.decode()
 
 
 async def check_ours_against_mavsdk_servers(args):

@@ -235,6 +235,18 @@ def check_mavftp(args):
     return "listing, 300 kB read in 80-byte bursts, 100 kB written (%s)" % ", ".join(notes)
 
 
+def start_mavproxy(wd, port, state, home, log):
+    """MAVProxy, without its GUI, on tcp:HOST:port, target 1/1, its state in `state`, its
+    output in `log`, commands on its stdin."""
+    env = dict(os.environ, HOME=home, PYTHONUNBUFFERED="1", MPLBACKEND="Agg")
+    env.pop("DISPLAY", None)
+    return subprocess.Popen(
+        [sys.executable, "-m", "MAVProxy.mavproxy", "--master=tcp:%s:%d" % (HOST, port),
+         "--state-basedir=" + state, "--target-system=1", "--target-component=1"],
+        stdin=subprocess.PIPE, stdout=open(log, "wb"), stderr=subprocess.STDOUT,
+        env=env, cwd=wd)
+
+
 def check_mavproxy(args):
     import importlib.util
     if importlib.util.find_spec("MAVProxy") is None:
@@ -265,14 +277,8 @@ def check_mavproxy(args):
         if rc.returncode != 0:
             raise CheckFailed("our upload through the router exited %d: %s"
                               % (rc.returncode, rc.stderr[-300:]))
-        env = dict(os.environ, HOME=home, PYTHONUNBUFFERED="1", MPLBACKEND="Agg")
-        env.pop("DISPLAY", None)
         log = os.path.join(wd, "mavproxy.log")
-        mavproxy = subprocess.Popen(
-            [sys.executable, "-m", "MAVProxy.mavproxy", "--master=tcp:%s:%d" % (HOST, p_gcs),
-             "--state-basedir=" + state, "--target-system=1", "--target-component=1"],
-            stdin=subprocess.PIPE, stdout=open(log, "wb"), stderr=subprocess.STDOUT,
-            env=env, cwd=wd)
+        mavproxy = start_mavproxy(wd, p_gcs, state, home, log)
         n = len(base.PARAMS)
         if not wait_text(log, "Saved %d parameters" % n, 40, mavproxy):
             raise CheckFailed("MAVProxy did not save %d parameters: %s"
@@ -329,14 +335,8 @@ def check_mavproxy_flies(args):
     try:
         time.sleep(0.5)
         v = vehicle(args, p_vehicle, "mavproxy-flies")
-        env = dict(os.environ, HOME=home, PYTHONUNBUFFERED="1", MPLBACKEND="Agg")
-        env.pop("DISPLAY", None)
         log = os.path.join(wd, "mavproxy.log")
-        mavproxy = subprocess.Popen(
-            [sys.executable, "-m", "MAVProxy.mavproxy", "--master=tcp:%s:%d" % (HOST, p_gcs),
-             "--state-basedir=" + state, "--target-system=1", "--target-component=1"],
-            stdin=subprocess.PIPE, stdout=open(log, "wb"), stderr=subprocess.STDOUT,
-            env=env, cwd=wd)
+        mavproxy = start_mavproxy(wd, p_gcs, state, home, log)
 
         def say(line, expect, seconds=20):
             mavproxy.stdin.write(line.encode() + b"\n")
