@@ -47,7 +47,7 @@ use std::time::{Duration, Instant};
 
 pub use ferrolink_dialects as dialects;
 use ferrolink_dialects::common::{MavAutopilot, MavType, Message as Common};
-use ferrolink_io::mavlink::services::{self, Exchange, Peer, Remote};
+use ferrolink_io::mavlink::services::{self, AsyncRemote, Exchange, Peer, Remote};
 use ferrolink_io::mavlink::wait::{block_on, Blocking, Tokio, Wait};
 use ferrolink_io::mavlink::{Filter, OwnHeartbeat, SharedConnection, Tap};
 use ferrolink_runtime::mavlink::service::command::{self, Command};
@@ -255,19 +255,21 @@ impl System {
     /// The microservices' client for it (parameters, missions, files, commands), blocking, on
     /// the node's connection beside everything else.
     pub fn remote(&self) -> Remote<'_> {
+        Remote::on(&self.node.inner.link, self.peer())
+    }
+
+    /// It as the microservices' clients name a target.
+    fn peer(&self) -> Peer {
         let identity = self.identity();
-        Remote::on(
-            &self.node.inner.link,
-            Peer {
-                address: Address::new(self.id, self.component),
-                autopilot: services_enum::MavAutopilot::from_raw(
-                    identity.map_or(0, |i| i.autopilot.raw()),
-                ),
-                kind: services_enum::MavType::from_raw(identity.map_or(0, |i| i.kind.raw())),
-                since_us: 0,
-                last_us: 0,
-            },
-        )
+        Peer {
+            address: Address::new(self.id, self.component),
+            autopilot: services_enum::MavAutopilot::from_raw(
+                identity.map_or(0, |i| i.autopilot.raw()),
+            ),
+            kind: services_enum::MavType::from_raw(identity.map_or(0, |i| i.kind.raw())),
+            since_us: 0,
+            last_us: 0,
+        }
     }
 
     fn with<T>(&self, f: impl FnOnce(&telemetry::Latest) -> T) -> Option<T> {
@@ -467,6 +469,11 @@ impl AsyncSystem {
     /// Its telemetry (the latest values, and subscriptions with `recv_async`).
     pub fn telemetry(&self) -> Telemetry {
         self.0.telemetry()
+    }
+    /// The microservices' client for it (parameters, missions, files, commands), async, with
+    /// progress, on the node's connection beside everything else.
+    pub fn remote(&self) -> AsyncRemote {
+        AsyncRemote::on(self.0.node.inner.link.clone(), self.0.peer())
     }
     /// Does `action`; `progress` sees each `IN_PROGRESS` percentage.
     pub async fn act(

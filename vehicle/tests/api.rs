@@ -1,5 +1,6 @@
 //! The vehicle API, blocking and async, against the software vehicle in this process over
-//! loopback UDP: discovery, the state from its heartbeat, and actions with their true results.
+//! loopback UDP: discovery, the state from its heartbeat, actions with their true results, and
+//! the services beside them.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -18,7 +19,10 @@ fn start_vehicle(stop: &Arc<AtomicBool>) -> (u16, std::thread::JoinHandle<()>) {
         address: Address::new(1, 1),
         autopilot: MavAutopilot::Px4,
         kind: MavType::Quadrotor,
-        params: Vec::new(),
+        params: vec![ferrolink_runtime::mavlink::service::param::Param {
+            name: "MIS_TAKEOFF_ALT".into(),
+            value: ferrolink_runtime::mavlink::service::param::Value::F32(5.0),
+        }],
         table: services::TABLE.into(),
         ftp_root: None,
         home: ferrolink_io::mavlink::vehicle::HOME,
