@@ -296,7 +296,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 }
             }
             let all = [file.endpoints.clone(), given.clone()].concat();
-            let dialects = Dialects::load(
+            let dialects = crate::dialect::load(
                 &[file.dialects, dialect].concat(),
                 crate::dialect::ROUTER_DEFAULT,
             )?;
@@ -445,7 +445,7 @@ fn read_config(path: &Path) -> Result<FileConfig<Extra>, String> {
 fn dialects() -> Result<ExitCode, Box<dyn std::error::Error>> {
     let mut out = io::stdout().lock();
     for name in crate::dialect::names() {
-        let loaded = Dialects::load(&[], name)?;
+        let loaded = crate::dialect::load(&[], name)?;
         let messages: usize = loaded.ir.modules.iter().map(|m| m.messages.len()).sum();
         let (name, enums) = (serde_json::to_string(name)?, loaded.ir.enums.len());
         writeln!(
@@ -458,7 +458,7 @@ fn dialects() -> Result<ExitCode, Box<dyn std::error::Error>> {
 
 fn encode(dialect: &[PathBuf]) -> Result<ExitCode, Box<dyn std::error::Error>> {
     use ferrolink_traffic::FrameDefaults;
-    let dialects = Dialects::load(dialect, crate::dialect::DEFAULT)?;
+    let dialects = crate::dialect::load(dialect, crate::dialect::DEFAULT)?;
     let decoder = dialects.decoder();
     crate::encode_lines(|n, line| {
         let value = serde_json::from_str(line).map_err(|e| e.to_string())?;
@@ -478,9 +478,10 @@ fn dump(
     csv: Option<&Path>,
     file: &Path,
 ) -> Result<ExitCode, Box<dyn std::error::Error>> {
-    let dialects = Dialects::load(dialect, crate::dialect::DEFAULT)?;
+    let dialects = crate::dialect::load(dialect, crate::dialect::DEFAULT)?;
     let decoder = dialects.decoder();
-    let data = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let unreadable = |e: io::Error| format!("{}: {e}", file.display());
+    let input = std::fs::File::open(file).map_err(unreadable)?;
     let mut out = BufWriter::new(io::stdout().lock());
     let mut export = csv.map(CsvExport::new_mavlink).transpose()?;
     let mut decoded = 0u64;
@@ -526,11 +527,13 @@ fn dump(
             }
         }
     };
-    let stats = if raw {
-        tlog::read_raw(&data, &dialects.table, &mut print)
+    let table = &dialects.table[..];
+    let mut reader = if raw {
+        tlog::LogReader::raw(input, table)
     } else {
-        tlog::read_tlog(&data, &dialects.table, &mut print)
+        tlog::LogReader::tlog(input, table)
     };
+    let stats = reader.read_all(&mut print).map_err(unreadable)?;
     if let Some(e) = failed {
         if e.kind() == io::ErrorKind::BrokenPipe {
             return Ok(ExitCode::SUCCESS);

@@ -20,7 +20,6 @@ use ferrolink_runtime::mavlink::service::messages::{
 use ferrolink_runtime::mavlink::service::param::{self, Protocol, Received, Value};
 use ferrolink_runtime::mavlink::service::Address;
 
-use crate::dialect::Dialects;
 
 /// How long a client waits for the vehicle's first HEARTBEAT.
 const DISCOVERY: Duration = Duration::from_secs(10);
@@ -263,7 +262,7 @@ pub(crate) fn table_with(
     dialect: &[PathBuf],
 ) -> Result<Vec<ferrolink_runtime::mavlink::MessageMeta>> {
     let mut table = services::TABLE.to_vec();
-    for m in Dialects::load(dialect, crate::dialect::DEFAULT)?
+    for m in crate::dialect::load(dialect, crate::dialect::DEFAULT)?
         .table
         .iter()
     {
@@ -659,8 +658,8 @@ pub fn mission(command: MissionCommand) -> Result<ExitCode> {
 pub fn command(args: CommandArgs) -> Result<ExitCode> {
     // MAV_CMD and MAV_RESULT names: the dialect's, else the services' own.
     let (names, own) = (
-        Dialects::load(&args.target.dialect, crate::dialect::DEFAULT)?,
-        Dialects::services()?,
+        crate::dialect::load(&args.target.dialect, crate::dialect::DEFAULT)?,
+        crate::dialect::services()?,
     );
     let id = match args.command.parse::<u16>() {
         Ok(id) => id,

@@ -13,7 +13,6 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use crate::dialect::Dialects;
 
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
@@ -105,12 +104,14 @@ pub fn run(dialect: &[PathBuf], plot: Option<&Path>, file: &Path) -> BoxResult<E
     let plot = plot
         .map(|path| PlotFormat::of(path).map(|format| (path, format)))
         .transpose()?;
-    let dialects = Dialects::load(dialect, crate::dialect::DEFAULT)?;
-    let data = std::fs::read(file).map_err(|e| format!("{}: {e}", file.display()))?;
+    let dialects = crate::dialect::load(dialect, crate::dialect::DEFAULT)?;
+    let failed = |e: std::io::Error| format!("{}: {e}", file.display());
+    let input = std::fs::File::open(file).map_err(failed)?;
     let mut sources: BTreeMap<SourceId, Source> = BTreeMap::new();
     let mut timeline = Timeline::default();
     let names = dialects.names();
-    let stats = tlog::read_tlog(&data, &dialects.table, |record| {
+    let mut reader = tlog::LogReader::tlog(input, &dialects.table[..]);
+    let stats = reader.read_all(|record| {
         let header = record.frame.header();
         let t = record.t_us.unwrap_or(0);
         let name = names
@@ -122,6 +123,7 @@ pub fn run(dialect: &[PathBuf], plot: Option<&Path>, file: &Path) -> BoxResult<E
         *source.by_message.entry(name.clone()).or_default() += 1;
         timeline.add(id, name, t, lost);
     });
+    let stats = stats.map_err(failed)?;
     // The plot first: a closed stdout must not keep it from being written.
     if let Some((path, format)) = plot {
         let drawn =

@@ -139,7 +139,7 @@ impl Links {
                 UriArg::Zenoh(uri) => zenoh.push(uri),
             }
         }
-        let dialects = crate::dialect::Dialects::own()?;
+        let dialects = crate::dialect::own()?;
         let names = dialects.names();
         let attached = zenoh_interfaces(zenoh, dialects)?;
         let config = ferrolink_io::ndlcom::bridge::Config {

@@ -26,6 +26,7 @@
 #![forbid(unsafe_code)]
 
 mod decode;
+pub mod dialect;
 mod export;
 mod json;
 mod table;
@@ -34,6 +35,7 @@ mod tests;
 mod value;
 
 pub use decode::{columns, DecodedMessage, PayloadDecoder};
+pub use dialect::Dialects;
 pub use export::{CsvExport, RowMeta, UNKNOWN_FILE};
 pub use json::FrameDefaults;
 pub use table::message_table;

@@ -6,15 +6,19 @@
 //! `SETUP_SIGNING`'s secret key is zeroed (its checksum recomputed), the one change to a frame.
 //! [`Spool`] is a writer for a program that logs while it forwards: a file that stalls costs
 //! records, counted, never the caller's time.
-//! [`read_tlog`] reads them back, record by record, and resynchronises on damage;
-//! [`read_raw`] reads a raw capture of link bytes.
+//! [`LogReader`] reads them back from any `Read`, a chunk at a time (files larger than memory
+//! too), record by record, and resynchronises on damage; it reads raw captures of link bytes as
+//! well. [`read_tlog`] and [`read_raw`] do the same for bytes held in memory.
 
 use std::io::{self, Write};
 use std::time::Instant;
 
 use ferrolink_runtime::crc::mcrf4xx_digest;
-use ferrolink_runtime::mavlink::parser::{Feed, ParsedFrame, Parser};
-use ferrolink_runtime::mavlink::{v1, v2, MessageMeta};
+use ferrolink_runtime::mavlink::{v1, v2};
+
+mod read;
+
+pub use read::{read_raw, read_tlog, LogReader, ReadStats, Record};
 
 /// `SETUP_SIGNING` (common.xml): id, CRC_EXTRA, and where its `secret_key[32]` lies.
 const SETUP_SIGNING_ID: u32 = 256;
@@ -187,135 +191,6 @@ pub fn redact_setup_signing(frame: &mut [u8]) {
     if let Some(slot) = frame.get_mut(body..body + 2) {
         slot.copy_from_slice(&crc.to_le_bytes());
     }
-}
-
-/// What a reader found besides the frames it handed out.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct ReadStats {
-    /// Frames handed out.
-    pub frames: u64,
-    /// Of those, frames with ids the table lacks (unchecked; only at record boundaries).
-    pub unchecked: u64,
-    /// Of those, frames found by searching after damage rather than at a record boundary.
-    pub resynced: u64,
-    /// Bytes skipped: damage, noise, rejected candidates.
-    pub skipped_bytes: u64,
-    /// Candidates rejected for a bad checksum while searching.
-    pub bad_crc: u64,
-    /// Bytes at the end too short for a whole record.
-    pub truncated_bytes: u64,
-}
-
-/// One frame of a log.
-#[derive(Debug, Clone, Copy)]
-pub struct Record<'a> {
-    /// Its timestamp (`None` in a raw capture).
-    pub t_us: Option<u64>,
-    /// Where the frame starts in the input.
-    pub offset: usize,
-    /// The frame.
-    pub frame: ParsedFrame<'a>,
-}
-
-/// Reads a `.tlog` held in memory, calling `on_record` for every frame in order.
-///
-/// A record whose frame is whole and passes its checksum (or has an id `table` lacks) is taken
-/// as it stands. Anything else is damage: the reader then searches for the next frame that
-/// passes its checksum, with the backtracking parser, and takes the 8 bytes before it as its
-/// timestamp.
-pub fn read_tlog(
-    data: &[u8],
-    table: &[MessageMeta],
-    mut on_record: impl FnMut(Record<'_>),
-) -> ReadStats {
-    let aligned = Parser::<{ v2::MAX_FRAME_LEN }, _>::new(table).pass_unknown_ids(true);
-    let mut stats = ReadStats::default();
-    let mut pos = 0;
-    while pos < data.len() {
-        let Some(body) = data.get(pos + 8..) else {
-            stats.truncated_bytes += (data.len() - pos) as u64;
-            break;
-        };
-        let t_us = timestamp(data, pos + 8);
-        if let Some(frame) = aligned.parse_at(body) {
-            stats.frames += 1;
-            stats.unchecked += u64::from(!frame.is_checked());
-            on_record(Record {
-                t_us,
-                offset: pos + 8,
-                frame,
-            });
-            pos += 8 + frame.as_bytes().len();
-            continue;
-        }
-        // Damage: search from the byte after this record's timestamp.
-        let mut search = Parser::<{ v2::MAX_FRAME_LEN }, _>::new(table);
-        let found = match search.feed(body) {
-            Feed::Frame { frame, remaining } => {
-                let end = data.len() - remaining.len();
-                let start = end - frame.as_bytes().len();
-                on_record(Record {
-                    t_us: timestamp(data, start),
-                    offset: start,
-                    frame,
-                });
-                Some((start, end))
-            }
-            Feed::Consumed => None,
-        };
-        stats.bad_crc += search.stats().bad_crc as u64;
-        let Some((start, end)) = found else {
-            // Nothing more: the rest is damage, or a record cut off at the end.
-            if body.len() < v2::MAX_FRAME_LEN
-                && body
-                    .first()
-                    .is_some_and(|&b| b == v1::MAGIC || b == v2::MAGIC)
-            {
-                stats.truncated_bytes += (data.len() - pos) as u64;
-            } else {
-                stats.skipped_bytes += body.len() as u64;
-            }
-            break;
-        };
-        stats.skipped_bytes += (start - (pos + 8)) as u64;
-        stats.frames += 1;
-        stats.resynced += 1;
-        pos = end;
-    }
-    stats
-}
-
-/// The big-endian timestamp in the 8 bytes before `at`.
-fn timestamp(data: &[u8], at: usize) -> Option<u64> {
-    let bytes = data.get(at.checked_sub(8)?..at)?;
-    Some(u64::from_be_bytes(bytes.try_into().ok()?))
-}
-
-/// Reads a raw capture of link bytes: every frame that passes its checksum, in order. Ids the
-/// table lacks cannot be checked and are skipped (in noise they are mostly false frames).
-pub fn read_raw(
-    data: &[u8],
-    table: &[MessageMeta],
-    mut on_record: impl FnMut(Record<'_>),
-) -> ReadStats {
-    let mut parser = Parser::<{ v2::MAX_FRAME_LEN }, _>::new(table);
-    let mut stats = ReadStats::default();
-    let mut input = data;
-    while let Feed::Frame { frame, remaining } = parser.feed(input) {
-        let offset = data.len() - remaining.len() - frame.as_bytes().len();
-        input = remaining;
-        stats.frames += 1;
-        on_record(Record {
-            t_us: None,
-            offset,
-            frame,
-        });
-    }
-    let p = parser.stats();
-    stats.bad_crc = p.bad_crc as u64;
-    stats.skipped_bytes = (p.garbage_bytes + p.rejected()) as u64;
-    stats.truncated_bytes = parser.buffered() as u64;
-    stats
 }
 
 #[cfg(test)]
