@@ -4,6 +4,8 @@
 mod dialect;
 mod diff;
 mod mavlink;
+#[cfg(feature = "parquet")]
+mod mavlink_export;
 mod mavlink_ftp;
 mod mavlink_services;
 mod mavlink_stats;

@@ -99,6 +99,27 @@ pub enum Command {
         /// The log.
         file: PathBuf,
     },
+    /// Export logs (or raw captures) as Parquet: one file per message type in DIR, with a `log`
+    /// column naming each row's file, for DuckDB, polars, pandas or Spark.
+    #[cfg(feature = "parquet")]
+    Export {
+        /// Write the Parquet files into DIR (created if need be; files there are replaced).
+        #[arg(long, value_name = "DIR")]
+        parquet: PathBuf,
+        /// Only these message types (wire names, comma-separated).
+        #[arg(long, value_name = "NAME,...", value_delimiter = ',')]
+        types: Option<Vec<String>>,
+        /// A built-in dialect's name or a dialect XML file to decode with; repeatable
+        /// [default: ardupilotmega].
+        #[arg(long, value_name = "NAME|FILE")]
+        dialect: Vec<PathBuf>,
+        /// The files are raw link bytes, without timestamps.
+        #[arg(long)]
+        raw: bool,
+        /// The logs.
+        #[arg(required = true, value_name = "FILE")]
+        files: Vec<PathBuf>,
+    },
     /// Encode messages: reads JSON lines from stdin, each a message in pymavlink's `to_dict()`
     /// form or the envelope `{"sysid":..,"compid":..,"seq":..,"msg":{..}}` that `dump` prints,
     /// and prints each as an unsigned MAVLink 2 frame in hex.
@@ -330,6 +351,14 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             csv,
             file,
         } => dump(&dialect, raw, csv.as_deref(), &file),
+        #[cfg(feature = "parquet")]
+        Command::Export {
+            parquet,
+            types,
+            dialect,
+            raw,
+            files,
+        } => crate::mavlink_export::run(&dialect, types.as_deref(), raw, &parquet, &files),
         Command::Encode { dialect } => encode(&dialect),
         Command::Stats {
             dialect,

@@ -20,7 +20,6 @@ use ferrolink_runtime::mavlink::service::messages::{
 use ferrolink_runtime::mavlink::service::param::{self, Protocol, Received, Value};
 use ferrolink_runtime::mavlink::service::Address;
 
-
 /// How long a client waits for the vehicle's first HEARTBEAT.
 const DISCOVERY: Duration = Duration::from_secs(10);
 

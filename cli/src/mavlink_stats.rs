@@ -13,7 +13,6 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-
 type BoxResult<T> = Result<T, Box<dyn std::error::Error>>;
 
 /// What drawing on a backend `DB` returns.

@@ -121,6 +121,37 @@ impl PayloadDecoder {
         self.by_id.keys().filter_map(|&id| self.message(id))
     }
 
+    /// The ids of the messages named `names` (wire names, any case). A name the dictionaries
+    /// lack is an error, which lists the known names that start like it.
+    pub fn ids_of(&self, names: &[String]) -> Result<std::collections::HashSet<u32>, String> {
+        names
+            .iter()
+            .map(|name| {
+                let found = self
+                    .messages()
+                    .find(|m| m.name.wire.eq_ignore_ascii_case(name))
+                    .map(|m| m.id);
+                found.ok_or_else(|| {
+                    let stem: String = name.chars().take(3).collect::<String>().to_uppercase();
+                    let mut close: Vec<&str> = self
+                        .messages()
+                        .map(|m| m.name.wire.as_str())
+                        .filter(|n| !stem.is_empty() && n.starts_with(&stem))
+                        .collect();
+                    close.sort_unstable();
+                    close.truncate(8);
+                    match close.is_empty() {
+                        true => format!("unknown message type {name:?}"),
+                        false => format!(
+                            "unknown message type {name:?} (known types like it: {})",
+                            close.join(", ")
+                        ),
+                    }
+                })
+            })
+            .collect()
+    }
+
     fn enum_named(&self, name: &str) -> Option<&Enum> {
         self.ir.enums.get(*self.enums.get(name)?)
     }

@@ -25,10 +25,14 @@
 
 #![forbid(unsafe_code)]
 
+#[cfg(feature = "arrow")]
+pub mod columns;
 mod decode;
 pub mod dialect;
 mod export;
 mod json;
+#[cfg(feature = "parquet")]
+pub mod parquet;
 mod table;
 #[cfg(test)]
 mod tests;
