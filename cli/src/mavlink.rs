@@ -510,7 +510,7 @@ fn dump(
     let dialects = crate::dialect::load(dialect, crate::dialect::DEFAULT)?;
     let decoder = dialects.decoder();
     let unreadable = |e: io::Error| format!("{}: {e}", file.display());
-    let input = std::fs::File::open(file).map_err(unreadable)?;
+    let mut reader = tlog::LogReader::open(file, &dialects.table[..], raw)?;
     let mut out = BufWriter::new(io::stdout().lock());
     let mut export = csv.map(CsvExport::new_mavlink).transpose()?;
     let mut decoded = 0u64;
@@ -555,12 +555,6 @@ fn dump(
                 failed = Some(e);
             }
         }
-    };
-    let table = &dialects.table[..];
-    let mut reader = if raw {
-        tlog::LogReader::raw(input, table)
-    } else {
-        tlog::LogReader::tlog(input, table)
     };
     let stats = reader.read_all(&mut print).map_err(unreadable)?;
     if let Some(e) = failed {

@@ -21,14 +21,8 @@ pub fn run(
     let mut summary = Vec::new();
     for file in files {
         let unreadable = |e: io::Error| format!("{}: {e}", file.display());
-        let input = std::fs::File::open(file).map_err(unreadable)?;
+        let mut reader = LogReader::open(file, &dialects.table[..], raw)?;
         export.set_log(&file.display().to_string());
-        let table = &dialects.table[..];
-        let mut reader = if raw {
-            LogReader::raw(input, table)
-        } else {
-            LogReader::tlog(input, table)
-        };
         let mut failed = None;
         let mut rows = 0u64;
         let stats = reader

@@ -105,11 +105,10 @@ pub fn run(dialect: &[PathBuf], plot: Option<&Path>, file: &Path) -> BoxResult<E
         .transpose()?;
     let dialects = crate::dialect::load(dialect, crate::dialect::DEFAULT)?;
     let failed = |e: std::io::Error| format!("{}: {e}", file.display());
-    let input = std::fs::File::open(file).map_err(failed)?;
     let mut sources: BTreeMap<SourceId, Source> = BTreeMap::new();
     let mut timeline = Timeline::default();
     let names = dialects.names();
-    let mut reader = tlog::LogReader::tlog(input, &dialects.table[..]);
+    let mut reader = tlog::LogReader::open(file, &dialects.table[..], false)?;
     let stats = reader.read_all(|record| {
         let header = record.frame.header();
         let t = record.t_us.unwrap_or(0);

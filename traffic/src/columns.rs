@@ -28,8 +28,8 @@ use arrow_array::types::{
     UInt64Type, UInt8Type,
 };
 use arrow_array::{
-    ArrayRef, ArrowPrimitiveType, DictionaryArray, FixedSizeListArray, Float64Array, PrimitiveArray, RecordBatch,
-    StringArray, UInt8Array,
+    ArrayRef, ArrowPrimitiveType, DictionaryArray, FixedSizeListArray, Float64Array,
+    PrimitiveArray, RecordBatch, StringArray, UInt8Array,
 };
 use arrow_schema::{DataType, Field as ArrowField, Schema, SchemaRef};
 use ferrolink_dictionary::ir::{Field, Message, Primitive};
@@ -193,10 +193,9 @@ impl Table {
         for field in &message.fields {
             let element = element_type(field.ty.primitive);
             let ty = match list_len(field) {
-                Some(n) => DataType::FixedSizeList(
-                    Arc::new(ArrowField::new("item", element, false)),
-                    n,
-                ),
+                Some(n) => {
+                    DataType::FixedSizeList(Arc::new(ArrowField::new("item", element, false)), n)
+                }
                 None => element,
             };
             columns.push(ArrowField::new(&field.name.wire, ty, false));

@@ -87,6 +87,16 @@ pub struct LogReader<R, T> {
     stats: ReadStats,
 }
 
+impl<T: AsRef<[MessageMeta]> + Clone> LogReader<std::fs::File, T> {
+    /// Opens the log at `path`: a raw capture when `raw`, else a `.tlog`. The error names the
+    /// file.
+    pub fn open(path: &std::path::Path, table: T, raw: bool) -> io::Result<Self> {
+        let file = std::fs::File::open(path)
+            .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
+        Ok(Self::new_kind(file, table, raw))
+    }
+}
+
 impl<R, T> std::fmt::Debug for LogReader<R, T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("LogReader")
@@ -107,6 +117,14 @@ impl<R: Read, T: AsRef<[MessageMeta]> + Clone> LogReader<R, T> {
     pub fn raw(input: R, table: T) -> Self {
         let parser = FrameParser::new(table.clone());
         Self::new(input, table, Some(parser))
+    }
+
+    /// A reader of either kind: a raw capture when `raw`, else a `.tlog`.
+    pub fn new_kind(input: R, table: T, raw: bool) -> Self {
+        match raw {
+            true => Self::raw(input, table),
+            false => Self::tlog(input, table),
+        }
     }
 
     fn new(input: R, table: T, raw: Option<FrameParser<T>>) -> Self {

@@ -1,0 +1,378 @@
+//! Messages that behave like pymavlink's: `get_type()`, `to_dict()`, `get_srcSystem()`, ...,
+//! `_timestamp`, and the fields as attributes, valued as pymavlink 2.4.50 values them.
+
+use std::sync::Arc;
+
+use ferrolink_dictionary::ir::{Field, Message as IrMessage, Primitive};
+use ferrolink_io::mavlink::Frame;
+use ferrolink_runtime::mavlink::{v1, v2};
+use pyo3::exceptions::PyAttributeError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList, PyString};
+
+use crate::dialect::Loaded;
+
+/// `char` bytes as pymavlink shows them: cut at the first NUL, bytes above 0x7f as U+FFFD.
+fn python_text(bytes: &[u8]) -> String {
+    bytes
+        .iter()
+        .take_while(|&&b| b != 0)
+        .map(|&b| {
+            if b.is_ascii() {
+                char::from(b)
+            } else {
+                '\u{fffd}'
+            }
+        })
+        .collect()
+}
+
+/// One little-endian element as pymavlink gives it: an `int`, or a `float` widened exactly.
+fn element<'py>(py: Python<'py>, primitive: Primitive, b: &[u8]) -> PyResult<Bound<'py, PyAny>> {
+    let mut raw = [0u8; 8];
+    raw[..b.len()].copy_from_slice(b);
+    let raw = u64::from_le_bytes(raw);
+    let shift = 64 - 8 * b.len() as u32;
+    let signed = ((raw << shift) as i64) >> shift;
+    Ok(match primitive {
+        Primitive::F32 => f64::from(f32::from_bits(raw as u32))
+            .into_pyobject(py)?
+            .into_any(),
+        Primitive::F64 => f64::from_bits(raw).into_pyobject(py)?.into_any(),
+        Primitive::I8 | Primitive::I16 | Primitive::I32 | Primitive::I64 => {
+            signed.into_pyobject(py)?.into_any()
+        }
+        _ => raw.into_pyobject(py)?.into_any(),
+    })
+}
+
+/// A field's value: a `str` for `char` fields and arrays, a `list` for other arrays.
+fn value<'py>(py: Python<'py>, field: &Field, payload: &[u8]) -> PyResult<Bound<'py, PyAny>> {
+    let size = field.ty.size();
+    let mut zeros = [0u8; 256];
+    let bytes = match payload.get(field.offset..field.offset + size) {
+        Some(b) => b,
+        None => {
+            // Past a truncated payload: zero-filled.
+            let have = payload.get(field.offset..).unwrap_or_default();
+            zeros[..have.len()].copy_from_slice(have);
+            &zeros[..size]
+        }
+    };
+    let primitive = field.ty.primitive;
+    if primitive == Primitive::Char {
+        return Ok(PyString::new(py, &python_text(bytes)).into_any());
+    }
+    if field.ty.array.is_none() {
+        return element(py, primitive, bytes);
+    }
+    let items = bytes
+        .chunks_exact(primitive.size())
+        .map(|e| element(py, primitive, e))
+        .collect::<PyResult<Vec<_>>>()?;
+    Ok(PyList::new(py, items)?.into_any())
+}
+
+/// A frame's parts: header length and payload length, by its magic.
+fn layout(frame: &[u8]) -> (usize, usize) {
+    let head = match frame.first() {
+        Some(&v1::MAGIC) => v1::HEADER_LEN,
+        _ => v2::HEADER_LEN,
+    };
+    (head, frame.get(1).map_or(0, |&l| usize::from(l)))
+}
+
+/// pymavlink's `MAVLink_header`.
+#[pyclass(module = "ferrolink.mavlink", name = "MAVLink_header", frozen, get_all)]
+#[derive(Debug, Clone)]
+#[allow(non_snake_case)]
+pub struct Header {
+    pub msgId: u32,
+    pub incompat_flags: u8,
+    pub compat_flags: u8,
+    pub mlen: u8,
+    pub seq: u8,
+    pub srcSystem: u8,
+    pub srcComponent: u8,
+}
+
+/// A decoded message, as pymavlink hands one out.
+#[pyclass(module = "ferrolink.mavlink", name = "MAVLink_message", frozen)]
+#[derive(Debug)]
+pub struct Message {
+    dialect: Arc<Loaded>,
+    frame: Box<[u8]>,
+    id: u32,
+    timestamp: Option<f64>,
+}
+
+impl Message {
+    /// The dictionary's message (only ids the dialect has become a `Message`).
+    fn message(&self) -> PyResult<&IrMessage> {
+        self.dialect
+            .decoder
+            .message(self.id)
+            .ok_or_else(|| PyAttributeError::new_err(format!("unknown message id {}", self.id)))
+    }
+
+    fn payload(&self) -> &[u8] {
+        let (head, len) = layout(&self.frame);
+        self.frame.get(head..head + len).unwrap_or_default()
+    }
+
+    fn header_fields(&self) -> Header {
+        let f = &self.frame;
+        let (v2, at) = (f.first() == Some(&v2::MAGIC), |i: usize| {
+            f.get(i).copied().unwrap_or(0)
+        });
+        let (flags, rest) = if v2 { ((at(2), at(3)), 4) } else { ((0, 0), 2) };
+        Header {
+            msgId: self.id,
+            incompat_flags: flags.0,
+            compat_flags: flags.1,
+            mlen: at(1),
+            seq: at(rest),
+            srcSystem: at(rest + 1),
+            srcComponent: at(rest + 2),
+        }
+    }
+}
+
+/// What a frame becomes: a [`Message`], or [`BadData`] for an id the dialect lacks.
+pub fn to_python(
+    py: Python<'_>,
+    dialect: &Arc<Loaded>,
+    frame: Box<[u8]>,
+    id: u32,
+    t_us: Option<u64>,
+) -> PyResult<Py<PyAny>> {
+    let timestamp = t_us.map(|t| t as f64 * 1e-6);
+    if dialect.decoder.message(id).is_none() {
+        let reason = format!("unknown MAVLink message ID {id}");
+        return Ok(Py::new(
+            py,
+            BadData {
+                data: frame,
+                reason,
+                timestamp,
+            },
+        )?
+        .into_any());
+    }
+    let message = Message {
+        dialect: Arc::clone(dialect),
+        frame,
+        id,
+        timestamp,
+    };
+    Ok(Py::new(py, message)?.into_any())
+}
+
+/// A received [`Frame`] as a message.
+pub fn from_frame(
+    py: Python<'_>,
+    dialect: &Arc<Loaded>,
+    frame: &Frame,
+    t_us: u64,
+) -> PyResult<Py<PyAny>> {
+    to_python(
+        py,
+        dialect,
+        frame.as_bytes().into(),
+        frame.msg_id(),
+        Some(t_us),
+    )
+}
+
+#[pymethods]
+impl Message {
+    /// The message's name: `"ATTITUDE"`.
+    fn get_type(&self) -> PyResult<&str> {
+        Ok(&self.message()?.name.wire)
+    }
+
+    /// Its id.
+    #[allow(non_snake_case)]
+    fn get_msgId(&self) -> u32 {
+        self.id
+    }
+
+    /// The sender's system id.
+    #[allow(non_snake_case)]
+    fn get_srcSystem(&self) -> u8 {
+        self.header_fields().srcSystem
+    }
+
+    /// The sender's component id.
+    #[allow(non_snake_case)]
+    fn get_srcComponent(&self) -> u8 {
+        self.header_fields().srcComponent
+    }
+
+    /// The sequence number.
+    fn get_seq(&self) -> u8 {
+        self.header_fields().seq
+    }
+
+    /// The frame's header, as pymavlink's `MAVLink_header`.
+    fn get_header(&self) -> Header {
+        self.header_fields()
+    }
+
+    /// Whether the frame carried a MAVLink 2 signature.
+    fn get_signed(&self) -> bool {
+        self.frame.first() == Some(&v2::MAGIC) && self.frame.get(2).is_some_and(|f| f & 1 != 0)
+    }
+
+    /// The whole frame as received.
+    fn get_msgbuf<'py>(&self, py: Python<'py>) -> Bound<'py, pyo3::types::PyByteArray> {
+        pyo3::types::PyByteArray::new(py, &self.frame)
+    }
+
+    /// The payload as received (MAVLink 2 truncation kept).
+    fn get_payload<'py>(&self, py: Python<'py>) -> Bound<'py, pyo3::types::PyBytes> {
+        pyo3::types::PyBytes::new(py, self.payload())
+    }
+
+    /// The field names, in XML order.
+    fn get_fieldnames(&self) -> PyResult<Vec<&str>> {
+        Ok(self
+            .message()?
+            .fields
+            .iter()
+            .map(|f| f.name.wire.as_str())
+            .collect())
+    }
+
+    /// The field names, as pymavlink's `fieldnames` attribute.
+    #[getter(fieldnames)]
+    fn names_attribute(&self) -> PyResult<Vec<&str>> {
+        self.get_fieldnames()
+    }
+
+    /// The `.tlog` timestamp in seconds since the Unix epoch (`None` in a raw capture); for a
+    /// live message, when it was received.
+    #[getter(_timestamp)]
+    fn timestamp(&self) -> Option<f64> {
+        self.timestamp
+    }
+
+    /// `{"mavpackettype": NAME, field: value, ...}`, as pymavlink's `to_dict()`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let message = self.message()?;
+        let dict = PyDict::new(py);
+        dict.set_item("mavpackettype", &message.name.wire)?;
+        let payload = self.payload();
+        for field in &message.fields {
+            dict.set_item(&field.name.wire, value(py, field, payload)?)?;
+        }
+        Ok(dict)
+    }
+
+    fn __getattr__<'py>(&self, py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyAny>> {
+        let message = self.message()?;
+        match message.fields.iter().find(|f| f.name.wire == name) {
+            Some(field) => value(py, field, self.payload()),
+            None => Err(PyAttributeError::new_err(format!(
+                "'{}' message has no attribute '{name}'",
+                message.name.wire
+            ))),
+        }
+    }
+
+    fn __dir__(&self) -> PyResult<Vec<String>> {
+        let mut names: Vec<String> = self
+            .get_fieldnames()?
+            .into_iter()
+            .map(String::from)
+            .collect();
+        names.extend(
+            [
+                "get_type",
+                "get_msgId",
+                "get_srcSystem",
+                "get_srcComponent",
+                "get_seq",
+                "get_header",
+                "get_signed",
+                "get_msgbuf",
+                "get_payload",
+                "get_fieldnames",
+                "fieldnames",
+                "to_dict",
+                "_timestamp",
+            ]
+            .map(String::from),
+        );
+        Ok(names)
+    }
+
+    /// `NAME {field : value, ...}`, as pymavlink prints a message.
+    fn __str__(&self, py: Python<'_>) -> PyResult<String> {
+        let message = self.message()?;
+        let payload = self.payload();
+        let mut parts = Vec::with_capacity(message.fields.len());
+        for field in &message.fields {
+            let v = value(py, field, payload)?;
+            parts.push(format!("{} : {}", field.name.wire, v.str()?));
+        }
+        Ok(format!("{} {{{}}}", message.name.wire, parts.join(", ")))
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        self.__str__(py)
+    }
+}
+
+/// A frame that could not be decoded, as pymavlink's `MAVLink_bad_data`.
+#[pyclass(module = "ferrolink.mavlink", name = "MAVLink_bad_data", frozen)]
+#[derive(Debug)]
+pub struct BadData {
+    data: Box<[u8]>,
+    /// Why: `"unknown MAVLink message ID 42000"`.
+    #[pyo3(get)]
+    reason: String,
+    timestamp: Option<f64>,
+}
+
+#[pymethods]
+impl BadData {
+    /// `"BAD_DATA"`.
+    fn get_type(&self) -> &'static str {
+        "BAD_DATA"
+    }
+
+    /// The frame's bytes, as a list of ints (as pymavlink's `data`).
+    #[getter]
+    fn data(&self) -> Vec<u8> {
+        self.data.to_vec()
+    }
+
+    /// The frame as received.
+    fn get_msgbuf<'py>(&self, py: Python<'py>) -> Bound<'py, pyo3::types::PyByteArray> {
+        pyo3::types::PyByteArray::new(py, &self.data)
+    }
+
+    /// The `.tlog` timestamp, as [`Message`]'s.
+    #[getter(_timestamp)]
+    fn timestamp(&self) -> Option<f64> {
+        self.timestamp
+    }
+
+    /// `{"mavpackettype": "BAD_DATA", "data": [...], "reason": ...}`.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let dict = PyDict::new(py);
+        dict.set_item("mavpackettype", "BAD_DATA")?;
+        dict.set_item("data", self.data())?;
+        dict.set_item("reason", &self.reason)?;
+        Ok(dict)
+    }
+
+    fn __str__(&self) -> String {
+        format!(
+            "BAD_DATA {{data : {:?}, reason : {}}}",
+            self.data(),
+            self.reason
+        )
+    }
+}
