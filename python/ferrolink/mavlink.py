@@ -11,13 +11,13 @@ import time
 from typing import Any, Dict, Iterable, Iterator, List, Optional, Sequence, Union
 
 from . import _native
-from ._native import MAVLink_bad_data, MAVLink_header, MAVLink_message
+from ._native import MAVLink_header, MAVLink_message, MAVLink_unknown
 
 __all__ = [
     "DEFAULT_DIALECT",
-    "MAVLink_bad_data",
     "MAVLink_header",
     "MAVLink_message",
+    "MAVLink_unknown",
     "Connection",
     "connect",
     "dialects",
@@ -53,16 +53,17 @@ def open_log(
     dialect: str = DEFAULT_DIALECT,
     types: Types = None,
     raw: bool = False,
-) -> Iterator[Union[MAVLink_message, MAVLink_bad_data]]:
+) -> Iterator[Union[MAVLink_message, MAVLink_unknown]]:
     """Iterates over the messages of a ``.tlog`` (or of a raw capture, with ``raw=True``).
 
     Each message behaves like pymavlink's: ``get_type()``, ``to_dict()``, ``get_srcSystem()``,
     ``get_srcComponent()``, ``get_seq()``, ``get_msgId()``, ``get_header()``, ``_timestamp``
     (the tlog's seconds), and the fields as attributes. Ids the dialect lacks come as
-    ``MAVLink_bad_data`` (``get_type() == "BAD_DATA"``), as pymavlink yields them.
+    ``MAVLink_unknown`` (``get_type() == "UNKNOWN_<id>"``), as pymavlink yields them.
 
-    ``types`` (a name or names) filters before decoding; ``"BAD_DATA"`` asks for undecodable
-    frames. The file is read a chunk at a time (files larger than memory too), and damage is
+    ``types`` (a name or names) filters before decoding; ``"UNKNOWN_<id>"`` asks for an id the
+    dialect lacks. Damage is skipped, never yielded (pymavlink yields it as ``BAD_DATA``). The
+    file is read a chunk at a time (files larger than memory too), and damage is
     resynchronised: every intact frame after it is found. ``stats()`` on the iterator tells what
     was skipped.
     """

@@ -1,5 +1,6 @@
 //! Dialects by built-in name (`"ardupilotmega"`) or XML file path, each loaded once per process.
 
+use std::collections::HashSet;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
@@ -16,21 +17,49 @@ pub struct Loaded {
     pub table: Arc<[MessageMeta]>,
 }
 
+/// Which frames a reader hands out.
+#[derive(Debug, Default)]
+pub struct Wanted {
+    /// Ids the dialect has (`None`: all).
+    pub known: Option<HashSet<u32>>,
+    /// Ids it lacks, asked for as `UNKNOWN_<id>` (`None`: all).
+    pub unknown: Option<HashSet<u32>>,
+}
+
+impl Wanted {
+    /// Whether a frame of id `id` (`known` to the dialect or not) is wanted.
+    pub fn takes(&self, id: u32, known: bool) -> bool {
+        let ids = if known { &self.known } else { &self.unknown };
+        ids.as_ref().is_none_or(|ids| ids.contains(&id))
+    }
+}
+
 impl Loaded {
-    /// The ids of `types` (message names, any case; `BAD_DATA` asks for undecodable frames,
-    /// the second value). `None` asks for all.
-    pub fn wanted(
-        &self,
-        types: Option<Vec<String>>,
-    ) -> PyResult<(Option<std::collections::HashSet<u32>>, bool)> {
-        let Some(mut types) = types else {
-            return Ok((None, true));
+    /// What `types` asks for: message names (any case), `UNKNOWN_<id>` for an id the dialect
+    /// lacks, `BAD_DATA` (which a reader that skips damage never yields). `None` asks for all.
+    pub fn wanted(&self, types: Option<Vec<String>>) -> PyResult<Wanted> {
+        let Some(types) = types else {
+            return Ok(Wanted::default());
         };
-        let before = types.len();
-        types.retain(|t| !t.eq_ignore_ascii_case("BAD_DATA"));
-        let bad = types.len() != before;
-        let ids = self.decoder.ids_of(&types).map_err(error::value)?;
-        Ok((Some(ids), bad))
+        let mut names = Vec::new();
+        let mut unknown = HashSet::new();
+        for t in types {
+            let upper = t.to_ascii_uppercase();
+            if upper == "BAD_DATA" {
+                continue;
+            }
+            match upper.strip_prefix("UNKNOWN_").and_then(|n| n.parse().ok()) {
+                Some(id) => {
+                    unknown.insert(id);
+                }
+                None => names.push(t),
+            }
+        }
+        let known = self.decoder.ids_of(&names).map_err(error::value)?;
+        Ok(Wanted {
+            known: Some(known),
+            unknown: Some(unknown),
+        })
     }
 }
 

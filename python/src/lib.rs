@@ -40,7 +40,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_function(wrap_pyfunction!(dialect::dialects, m)?)?;
     m.add_class::<message::Message>()?;
-    m.add_class::<message::BadData>()?;
+    m.add_class::<message::Unknown>()?;
     m.add_class::<message::Header>()?;
     m.add_class::<log::LogIter>()?;
     m.add_class::<log::ArrowTable>()?;

@@ -2,7 +2,7 @@
 //! files ([`save_parquet`]). Files are read a chunk at a time, so a log larger than memory
 //! iterates in the memory of a chunk; damage is resynchronised as `ferrolink mavlink dump` does.
 
-use std::collections::{HashSet, VecDeque};
+use std::collections::VecDeque;
 use std::fs::File;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -16,7 +16,7 @@ use ferrolink_traffic::parquet::ParquetExport;
 use pyo3::prelude::*;
 use pyo3::types::PyCapsule;
 
-use crate::dialect::{self, Loaded};
+use crate::dialect::{self, Loaded, Wanted};
 use crate::{error, message};
 
 /// A frame read, waiting to be handed out.
@@ -31,8 +31,7 @@ struct Pending {
 pub struct LogIter {
     dialect: Arc<Loaded>,
     reader: LogReader<File, Arc<[MessageMeta]>>,
-    wanted: Option<HashSet<u32>>,
-    bad_data: bool,
+    wanted: Wanted,
     queue: VecDeque<Pending>,
     done: bool,
 }
@@ -51,13 +50,12 @@ impl LogIter {
     #[pyo3(signature = (path, dialect, types=None, raw=false))]
     fn new(path: PathBuf, dialect: &str, types: Option<Vec<String>>, raw: bool) -> PyResult<Self> {
         let dialect = dialect::load(dialect)?;
-        let (wanted, bad_data) = dialect.wanted(types)?;
+        let wanted = dialect.wanted(types)?;
         let reader = LogReader::open(&path, dialect.table.clone(), raw).map_err(error::io)?;
         Ok(LogIter {
             dialect,
             reader,
             wanted,
-            bad_data,
             queue: VecDeque::new(),
             done: false,
         })
@@ -73,21 +71,15 @@ impl LogIter {
                 dialect,
                 reader,
                 wanted,
-                bad_data,
                 queue,
                 ..
             } = self;
-            let (decoder, wanted, bad_data) = (&dialect.decoder, &*wanted, *bad_data);
+            let decoder = &dialect.decoder;
             let more = py
                 .detach(|| {
                     reader.next_chunk(|record| {
                         let id = record.frame.msg_id();
-                        let known = decoder.message(id).is_some();
-                        let take = match wanted {
-                            None => true,
-                            Some(ids) => ids.contains(&id) || (bad_data && !known),
-                        };
-                        if take {
+                        if wanted.takes(id, decoder.message(id).is_some()) {
                             queue.push_back(Pending {
                                 t_us: record.t_us,
                                 id,

@@ -8,7 +8,7 @@ use ferrolink_io::mavlink::Frame;
 use ferrolink_runtime::mavlink::{v1, v2};
 use pyo3::exceptions::PyAttributeError;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList, PyString};
+use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyString};
 
 use crate::dialect::Loaded;
 
@@ -87,7 +87,7 @@ fn layout(frame: &[u8]) -> (usize, usize) {
 #[derive(Debug, Clone)]
 #[allow(non_snake_case)]
 pub struct Header {
-    pub msgId: u32,
+    pub msgId: i64,
     pub incompat_flags: u8,
     pub compat_flags: u8,
     pub mlen: u8,
@@ -127,7 +127,7 @@ impl Message {
         });
         let (flags, rest) = if v2 { ((at(2), at(3)), 4) } else { ((0, 0), 2) };
         Header {
-            msgId: self.id,
+            msgId: i64::from(self.id),
             incompat_flags: flags.0,
             compat_flags: flags.1,
             mlen: at(1),
@@ -138,7 +138,7 @@ impl Message {
     }
 }
 
-/// What a frame becomes: a [`Message`], or [`BadData`] for an id the dialect lacks.
+/// What a frame becomes: a [`Message`], or [`Unknown`] for an id the dialect lacks.
 pub fn to_python(
     py: Python<'_>,
     dialect: &Arc<Loaded>,
@@ -148,16 +148,12 @@ pub fn to_python(
 ) -> PyResult<Py<PyAny>> {
     let timestamp = t_us.map(|t| t as f64 * 1e-6);
     if dialect.decoder.message(id).is_none() {
-        let reason = format!("unknown MAVLink message ID {id}");
-        return Ok(Py::new(
-            py,
-            BadData {
-                data: frame,
-                reason,
-                timestamp,
-            },
-        )?
-        .into_any());
+        let unknown = Unknown {
+            data: frame,
+            id,
+            timestamp,
+        };
+        return Ok(Py::new(py, unknown)?.into_any());
     }
     let message = Message {
         dialect: Arc::clone(dialect),
@@ -225,13 +221,13 @@ impl Message {
     }
 
     /// The whole frame as received.
-    fn get_msgbuf<'py>(&self, py: Python<'py>) -> Bound<'py, pyo3::types::PyByteArray> {
-        pyo3::types::PyByteArray::new(py, &self.frame)
+    fn get_msgbuf<'py>(&self, py: Python<'py>) -> Bound<'py, PyByteArray> {
+        PyByteArray::new(py, &self.frame)
     }
 
     /// The payload as received (MAVLink 2 truncation kept).
-    fn get_payload<'py>(&self, py: Python<'py>) -> Bound<'py, pyo3::types::PyBytes> {
-        pyo3::types::PyBytes::new(py, self.payload())
+    fn get_payload<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        PyBytes::new(py, self.payload())
     }
 
     /// The field names, in XML order.
@@ -324,33 +320,77 @@ impl Message {
     }
 }
 
-/// A frame that could not be decoded, as pymavlink's `MAVLink_bad_data`.
-#[pyclass(module = "ferrolink.mavlink", name = "MAVLink_bad_data", frozen)]
+/// A frame of an id the dialect lacks, as pymavlink's `MAVLink_unknown`: its type is
+/// `UNKNOWN_<id>`, its `data` the whole frame, its header empty (message id -2), as pymavlink
+/// 2.4.50 leaves it.
+#[pyclass(module = "ferrolink.mavlink", name = "MAVLink_unknown", frozen)]
 #[derive(Debug)]
-pub struct BadData {
+pub struct Unknown {
     data: Box<[u8]>,
-    /// Why: `"unknown MAVLink message ID 42000"`.
-    #[pyo3(get)]
-    reason: String,
+    id: u32,
     timestamp: Option<f64>,
 }
 
+/// pymavlink's `MAVLINK_MSG_ID_UNKNOWN`.
+const UNKNOWN_ID: i64 = -2;
+
 #[pymethods]
-impl BadData {
-    /// `"BAD_DATA"`.
-    fn get_type(&self) -> &'static str {
-        "BAD_DATA"
+impl Unknown {
+    /// `"UNKNOWN_<id>"`.
+    fn get_type(&self) -> String {
+        format!("UNKNOWN_{}", self.id)
     }
 
-    /// The frame's bytes, as a list of ints (as pymavlink's `data`).
+    /// -2, as pymavlink's.
+    #[allow(non_snake_case)]
+    fn get_msgId(&self) -> i64 {
+        UNKNOWN_ID
+    }
+
+    /// 0, as pymavlink's (it leaves the header empty).
+    #[allow(non_snake_case)]
+    fn get_srcSystem(&self) -> u8 {
+        0
+    }
+
+    /// 0, as pymavlink's.
+    #[allow(non_snake_case)]
+    fn get_srcComponent(&self) -> u8 {
+        0
+    }
+
+    /// 0, as pymavlink's.
+    fn get_seq(&self) -> u8 {
+        0
+    }
+
+    /// An empty header with message id -2, as pymavlink's.
+    fn get_header(&self) -> Header {
+        Header {
+            msgId: UNKNOWN_ID,
+            incompat_flags: 0,
+            compat_flags: 0,
+            mlen: 0,
+            seq: 0,
+            srcSystem: 0,
+            srcComponent: 0,
+        }
+    }
+
+    /// The whole frame.
     #[getter]
-    fn data(&self) -> Vec<u8> {
-        self.data.to_vec()
+    fn data<'py>(&self, py: Python<'py>) -> Bound<'py, PyByteArray> {
+        PyByteArray::new(py, &self.data)
     }
 
-    /// The frame as received.
-    fn get_msgbuf<'py>(&self, py: Python<'py>) -> Bound<'py, pyo3::types::PyByteArray> {
-        pyo3::types::PyByteArray::new(py, &self.data)
+    /// The whole frame.
+    fn get_msgbuf<'py>(&self, py: Python<'py>) -> Bound<'py, PyByteArray> {
+        PyByteArray::new(py, &self.data)
+    }
+
+    /// `["data"]`.
+    fn get_fieldnames(&self) -> Vec<&'static str> {
+        vec!["data"]
     }
 
     /// The `.tlog` timestamp, as [`Message`]'s.
@@ -359,20 +399,17 @@ impl BadData {
         self.timestamp
     }
 
-    /// `{"mavpackettype": "BAD_DATA", "data": [...], "reason": ...}`.
+    /// `{"mavpackettype": "UNKNOWN_<id>", "data": bytearray(frame)}`, as pymavlink's.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let dict = PyDict::new(py);
-        dict.set_item("mavpackettype", "BAD_DATA")?;
-        dict.set_item("data", self.data())?;
-        dict.set_item("reason", &self.reason)?;
+        dict.set_item("mavpackettype", self.get_type())?;
+        dict.set_item("data", self.data(py))?;
         Ok(dict)
     }
 
+    /// pymavlink's form: `UNKNOWN_<id> {data:['fd', '9', ...]}`.
     fn __str__(&self) -> String {
-        format!(
-            "BAD_DATA {{data : {:?}, reason : {}}}",
-            self.data(),
-            self.reason
-        )
+        let hex: Vec<String> = self.data.iter().map(|b| format!("'{b:x}'")).collect();
+        format!("{} {{data:[{}]}}", self.get_type(), hex.join(", "))
     }
 }

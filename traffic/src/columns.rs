@@ -3,7 +3,9 @@
 //!
 //! Each table has a `timestamp` column (a `.tlog`'s seconds since the Unix epoch, as pymavlink's
 //! `_timestamp`; null in a raw capture), `sysid`, `compid`, optionally `log` (which file a row
-//! came from), then one column per field in XML order, extensions included:
+//! came from), then one column per field in XML order, extensions included. A field keeps its
+//! name where it has one of ours (FOLLOW_TARGET's `timestamp`): ours then starts with an
+//! underscore (`_timestamp`, pymavlink's attribute). The fields' columns are:
 //! - numbers in their wire type (`float` as float32, `uint16_t` as uint16, ...);
 //! - numeric arrays as fixed-size lists;
 //! - `char` fields and arrays as strings, as pymavlink shows them (cut at the first NUL, bytes
@@ -180,15 +182,20 @@ struct Table {
 
 impl Table {
     fn new(message: &Message, log: bool) -> Self {
+        // A field keeps its name; one of ours that it takes gets an underscore in front.
+        let ours = |name: &str| match message.fields.iter().any(|f| f.name.wire == name) {
+            true => format!("_{name}"),
+            false => name.to_owned(),
+        };
         let mut columns = vec![
-            ArrowField::new("timestamp", DataType::Float64, true),
-            ArrowField::new("sysid", DataType::UInt8, false),
-            ArrowField::new("compid", DataType::UInt8, false),
+            ArrowField::new(ours("timestamp"), DataType::Float64, true),
+            ArrowField::new(ours("sysid"), DataType::UInt8, false),
+            ArrowField::new(ours("compid"), DataType::UInt8, false),
         ];
         if log {
             let dictionary =
                 DataType::Dictionary(Box::new(DataType::Int32), Box::new(DataType::Utf8));
-            columns.push(ArrowField::new(LOG_COLUMN, dictionary, false));
+            columns.push(ArrowField::new(ours(LOG_COLUMN), dictionary, false));
         }
         for field in &message.fields {
             let element = element_type(field.ty.primitive);
@@ -311,7 +318,8 @@ impl Tables {
         self.scratch.resize(table.max_len, 0);
         let n = payload.len().min(table.max_len);
         self.scratch[..n].copy_from_slice(&payload[..n]);
-        table.timestamp.push(t_us.map(|t| t as f64 / 1e6));
+        // As pymavlink computes `_timestamp`: microseconds times 1e-6, to the same double.
+        table.timestamp.push(t_us.map(|t| t as f64 * 1e-6));
         table.sysid.push(sysid);
         table.compid.push(compid);
         if let Some(rows) = &mut table.log {
