@@ -99,9 +99,38 @@ cargo test -p ferrolink-codegen --no-default-features --lib --test lean --quiet
 echo "== doc tests"
 cargo test --workspace --doc --all-features --quiet
 
-echo "== tests"
-if cargo nextest --version >/dev/null 2>&1; then
-  cargo nextest run --workspace --all-features --no-fail-fast
+# The Python package, as its users get it: a wheel built with maturin, installed into a fresh
+# venv with what its pytest suite compares against (pymavlink 2.4.50, pandas, pyarrow, DuckDB),
+# and the CLI's Parquet export beside it. Without network (no maturin, no packages) it is
+# skipped, and says so.
+echo "== the Python package: wheel, fresh venv, pytest"
+pyvenv=target/python-tests python_failed=0
+if { .venv/bin/python -c 'import maturin' 2>/dev/null ||
+     .venv/bin/pip install --quiet --disable-pip-version-check 'maturin>=1.7,<2'; } &&
+   rm -rf target/wheels "$pyvenv" &&
+   .venv/bin/maturin build --quiet --release -m python/Cargo.toml --out target/wheels &&
+   python3 -m venv "$pyvenv" &&
+   "$pyvenv/bin/pip" install --quiet --disable-pip-version-check target/wheels/ferrolink-*.whl \
+     pymavlink==2.4.50 pytest pandas pyarrow duckdb; then
+  cargo build --quiet --release -p ferrolink-cli
+  # -I and a directory outside the checkout: the installed wheel is tested, not python/.
+  (cd "$pyvenv" && FERROLINK_BIN="$OLDPWD/target/release/ferrolink" FERROLINK_REQUIRE_CLI=1 \
+    bin/python -I -m pytest -q -p no:cacheprovider "$OLDPWD/python/tests") ||
+    { python_failed=1; echo "error: the Python package's tests failed; the Rust tests run all the same" >&2; }
 else
-  cargo test --workspace --all-features --no-fail-fast
+  echo "warning: the Python package could not be built or its test packages installed (no network?); its tests are skipped"
 fi
+
+echo "== tests"
+# The Rust tests run even when the Python suite failed; the run fails if either did, and the
+# test runner's summary stays the last thing printed.
+rc=0
+if cargo nextest --version >/dev/null 2>&1; then
+  cargo nextest run --workspace --all-features --no-fail-fast || rc=$?
+else
+  cargo test --workspace --all-features --no-fail-fast || rc=$?
+fi
+if [ "$python_failed" = 1 ] && [ "$rc" = 0 ]; then
+  rc=1
+fi
+exit "$rc"

@@ -51,6 +51,13 @@ fn json(value: &Bound<'_, PyAny>) -> PyResult<serde_json::Value> {
     if value.is_instance_of::<PyString>() {
         return Ok(Json::from(value.extract::<String>()?));
     }
+    if let Ok(dict) = value.cast::<PyDict>() {
+        let mut object = serde_json::Map::new();
+        for (k, v) in dict.iter() {
+            object.insert(k.extract::<String>()?, json(&v)?);
+        }
+        return Ok(Json::Object(object));
+    }
     if let Ok(bytes) = value.extract::<Vec<u8>>() {
         if !value.is_instance_of::<PyList>() && !value.is_instance_of::<PyTuple>() {
             // bytes for a char array.
