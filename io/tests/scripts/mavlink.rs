@@ -12,7 +12,7 @@
 
 use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::{from_main_conf, from_toml, FileConfig};
-use ferrolink_io::mavlink::tlog::{read_raw, read_tlog, ReadStats, Record};
+use ferrolink_io::mavlink::tlog::{read_raw, read_tlog, LogReader, ReadStats, Record};
 use ferrolink_io::mavlink::ENDPOINTS;
 use ferrolink_runtime::mavlink::MessageMeta;
 
@@ -52,7 +52,41 @@ pub fn check_tlog(data: &[u8], table: &[MessageMeta]) {
         assert_eq!(stats.unchecked, if raw { 0 } else { unchecked });
         assert!(stats.resynced <= stats.frames);
         assert!(stats.skipped_bytes + stats.truncated_bytes <= data.len() as u64);
+        // Read a few bytes at a time, as from a file larger than memory: the same.
+        let whole = read_chunked(data, table, raw, usize::MAX);
+        for chunk in [1, 1 + usize::from(data.first().copied().unwrap_or(0)) % 300] {
+            assert_eq!(
+                read_chunked(data, table, raw, chunk),
+                whole,
+                "chunks of {chunk}"
+            );
+        }
+        assert_eq!(whole.1, stats);
     }
+}
+
+/// Gives at most `.1` bytes a read.
+struct Trickle<'a>(&'a [u8], usize);
+
+impl std::io::Read for Trickle<'_> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.0.len().min(out.len()).min(self.1);
+        out[..n].copy_from_slice(&self.0[..n]);
+        self.0 = &self.0[n..];
+        Ok(n)
+    }
+}
+
+/// Every record (offset, timestamp, id) and the stats, read `chunk` bytes at a time.
+type Read = (Vec<(usize, Option<u64>, u32)>, ReadStats);
+
+fn read_chunked(data: &[u8], table: &[MessageMeta], raw: bool, chunk: usize) -> Read {
+    let mut reader = LogReader::new_kind(Trickle(data, chunk), table, raw);
+    let mut got = Vec::new();
+    let stats = reader
+        .read_all(|r| got.push((r.offset, r.t_us, r.frame.msg_id())))
+        .expect("reading memory cannot fail");
+    (got, stats)
 }
 
 fn round_trips(endpoint: &Endpoint) {
