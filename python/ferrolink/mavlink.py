@@ -53,7 +53,7 @@ def open_log(
     dialect: str = DEFAULT_DIALECT,
     types: Types = None,
     raw: bool = False,
-) -> Iterator[Union[MAVLink_message, MAVLink_unknown]]:
+) -> "_native.LogIter":
     """Iterates over the messages of a ``.tlog`` (or of a raw capture, with ``raw=True``).
 
     Each message behaves like pymavlink's: ``get_type()``, ``to_dict()``, ``get_srcSystem()``,

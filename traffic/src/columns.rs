@@ -22,7 +22,8 @@
 //! assert_eq!((name.as_str(), batch.num_rows(), batch.num_columns()), ("ATTITUDE", 1, 10));
 //! ```
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::hash_map::Entry;
+use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 
 use arrow_array::types::{
@@ -272,7 +273,8 @@ pub struct Tables {
     wanted: Option<HashSet<u32>>,
     /// The logs named so far; rows take the last.
     logs: Vec<String>,
-    by_id: BTreeMap<u32, Table>,
+    /// Tables by message id; frames of ids not wanted never get one.
+    by_id: HashMap<u32, Table>,
     scratch: Vec<u8>,
 }
 
@@ -285,7 +287,7 @@ impl Tables {
             decoder,
             wanted,
             logs: Vec::new(),
-            by_id: BTreeMap::new(),
+            by_id: HashMap::new(),
             scratch: Vec::new(),
         })
     }
@@ -303,16 +305,17 @@ impl Tables {
     /// Appends a frame's payload as a row of its message's table. Ids not wanted are skipped;
     /// a short payload is zero-filled (the MAVLink 2 truncation rule).
     pub fn push(&mut self, t_us: Option<u64>, sysid: u8, compid: u8, id: u32, payload: &[u8]) {
-        if !self.wants(id) {
-            return;
-        }
-        let log = !self.logs.is_empty();
         let table = match self.by_id.entry(id) {
-            std::collections::btree_map::Entry::Occupied(t) => t.into_mut(),
-            std::collections::btree_map::Entry::Vacant(slot) => match self.decoder.message(id) {
-                Some(message) => slot.insert(Table::new(message, log)),
-                None => return,
-            },
+            Entry::Occupied(t) => t.into_mut(),
+            Entry::Vacant(slot) => {
+                let wanted = self.wanted.as_ref().is_none_or(|w| w.contains(&id));
+                match self.decoder.message(id) {
+                    Some(message) if wanted => {
+                        slot.insert(Table::new(message, !self.logs.is_empty()))
+                    }
+                    _ => return,
+                }
+            }
         };
         self.scratch.clear();
         self.scratch.resize(table.max_len, 0);
@@ -333,10 +336,14 @@ impl Tables {
     /// The tables of at least `min_rows` rows, by message name, as batches; they start over
     /// empty. A writer calls this as it goes, to hold no more than that many rows a type.
     pub fn take_full(&mut self, min_rows: usize) -> Vec<(String, RecordBatch)> {
-        self.by_id
-            .values_mut()
-            .filter(|t| t.rows() >= min_rows.max(1))
-            .map(|t| (t.name.clone(), t.take(&self.logs)))
+        let mut full: Vec<(&u32, &mut Table)> = self
+            .by_id
+            .iter_mut()
+            .filter(|(_, t)| t.rows() >= min_rows.max(1))
+            .collect();
+        full.sort_unstable_by_key(|(id, _)| **id);
+        full.into_iter()
+            .map(|(_, t)| (t.name.clone(), t.take(&self.logs)))
             .collect()
     }
 
