@@ -100,7 +100,8 @@ echo "== doc tests"
 cargo test --workspace --doc --all-features --quiet
 
 # The Python package, as its users get it: a wheel built with maturin, installed into a fresh
-# venv with what its pytest suite compares against (pymavlink 2.4.50, pandas, pyarrow, DuckDB),
+# venv with what its pytest suite compares against (pymavlink 2.4.50, pandas, pyarrow, polars,
+# DuckDB),
 # and the CLI's Parquet export beside it. Without network (no maturin, no packages) it is
 # skipped, and says so.
 echo "== the Python package: wheel, fresh venv, pytest"
@@ -111,7 +112,7 @@ if { .venv/bin/python -c 'import maturin' 2>/dev/null ||
    .venv/bin/maturin build --quiet --release -m python/Cargo.toml --out target/wheels &&
    python3 -m venv "$pyvenv" &&
    "$pyvenv/bin/pip" install --quiet --disable-pip-version-check target/wheels/ferrolink-*.whl \
-     pymavlink==2.4.50 pytest pandas pyarrow duckdb; then
+     pymavlink==2.4.50 pytest pandas pyarrow polars duckdb; then
   cargo build --quiet --release -p ferrolink-cli
   # -I and a directory outside the checkout: the installed wheel is tested, not python/.
   (cd "$pyvenv" && FERROLINK_BIN="$OLDPWD/target/release/ferrolink" FERROLINK_REQUIRE_CLI=1 \

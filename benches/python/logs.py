@@ -41,7 +41,7 @@ def generate(path, size_mb):
         (50, lambda t: apm.MAVLink_raw_imu_message(t * 1000, *[rng.randint(-2000, 2000) for _ in range(9)])),
         (10, lambda t: apm.MAVLink_global_position_int_message(t, 473977418 + rng.randint(0, 999), 85455939 + rng.randint(0, 999), 500000, 10000, 10, -5, 0, 9000)),
         (10, lambda t: apm.MAVLink_vfr_hud_message(f(0, 20), f(0, 20), rng.randint(0, 359), 50, f(0, 100), f(-2, 2))),
-        (10, lambda t: apm.MAVLink_servo_output_raw_message(t * 1000, 0, *[rng.randint(1000, 2000) for _ in range(8)])),
+        (10, lambda t: apm.MAVLink_servo_output_raw_message((t * 1000) % 2**32, 0, *[rng.randint(1000, 2000) for _ in range(8)])),
         (5, lambda t: apm.MAVLink_gps_raw_int_message(t * 1000, 3, 473977418, 85455939, 500000, 120, 150, 500, 9000, 12)),
         (5, lambda t: apm.MAVLink_rc_channels_message(t, 16, *[rng.randint(1000, 2000) for _ in range(18)], 255)),
         (2, lambda t: apm.MAVLink_sys_status_message(0x3f, 0x3f, 0x3f, 500, 12600, 1500, 80, 0, 0, 0, 0, 0, 0)),

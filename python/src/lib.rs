@@ -3,7 +3,8 @@
 //! - [`dialect`]: dialects by built-in name or XML file, loaded once per process;
 //! - [`message`]: messages that behave like pymavlink's objects;
 //! - [`log`]: logs read message by message, as Arrow tables, and into Parquet;
-//! - [`connection`]: live connections over the link layer, waited on without the GIL.
+//! - [`connection`]: live connections over the link layer, waited on without the GIL;
+//! - [`vehicle`]: the vehicle API (telemetry, actions, parameters, missions, files).
 //!
 //! Nothing here panics across the boundary: every failure is a Python exception
 //! (`FileNotFoundError`, `ValueError`, `OSError`).
@@ -14,6 +15,7 @@ mod connection;
 mod dialect;
 mod log;
 mod message;
+mod vehicle;
 
 /// Errors of this crate as Python exceptions.
 pub(crate) mod error {
@@ -47,5 +49,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(log::load_tables, m)?)?;
     m.add_function(wrap_pyfunction!(log::save_parquet, m)?)?;
     m.add_class::<connection::NativeConnection>()?;
+    m.add_class::<vehicle::Node>()?;
+    m.add_class::<vehicle::System>()?;
     Ok(())
 }

@@ -81,6 +81,15 @@ def test_load_log_into_pandas_numpy_and_by_type(generated_tlog):
     assert list(arrays["time_boot_ms"]) == [m.time_boot_ms for m in theirs["ATTITUDE"]]
 
 
+def test_load_log_into_polars(generated_tlog):
+    pl = pytest.importorskip("polars")
+    frames = mavlink.load_log(generated_tlog, types=["GPS_RAW_INT"], to="polars")
+    gps = frames["GPS_RAW_INT"]
+    assert isinstance(gps, pl.DataFrame)
+    theirs = by_type(pymavlink_messages(generated_tlog))["GPS_RAW_INT"]
+    assert gps["lat"].to_list() == [m.lat for m in theirs]
+
+
 def test_load_log_errors(tmp_path, generated_tlog):
     with pytest.raises(FileNotFoundError):
         mavlink.load_log(tmp_path / "nope.tlog")
