@@ -1,20 +1,32 @@
 //! Dialects by built-in name (`"ardupilotmega"`) or XML file path, each loaded once per process.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use ferrolink_runtime::mavlink::MessageMeta;
 use ferrolink_traffic::{Dialects, PayloadDecoder};
+use ferrolink_dictionary::ir::Message as IrMessage;
 use pyo3::prelude::*;
+use pyo3::types::PyString;
 
 use crate::error;
 
-/// A loaded dialect: its decoder, the parsers' table, and message ids by name.
+/// A loaded dialect: its decoder, the parsers' table, and its names as Python strings.
 #[derive(Debug)]
 pub struct Loaded {
     pub decoder: PayloadDecoder,
     pub table: Arc<[MessageMeta]>,
+    /// Each message's name and field names as Python strings, made once: `get_type()` and
+    /// `to_dict()` hand out the same objects every time.
+    names: Mutex<HashMap<u32, Arc<Names>>>,
+}
+
+/// A message's name and field names, as Python strings.
+#[derive(Debug)]
+pub struct Names {
+    pub message: Py<PyString>,
+    pub fields: Vec<Py<PyString>>,
 }
 
 /// Which frames a reader hands out.
@@ -35,6 +47,22 @@ impl Wanted {
 }
 
 impl Loaded {
+    /// The names of message `message` (which has id `id`).
+    pub fn names(&self, py: Python<'_>, id: u32, message: &IrMessage) -> Arc<Names> {
+        let mut names = self.names.lock().unwrap_or_else(|p| p.into_inner());
+        let made = names.entry(id).or_insert_with(|| {
+            Arc::new(Names {
+                message: PyString::intern(py, &message.name.wire).unbind(),
+                fields: message
+                    .fields
+                    .iter()
+                    .map(|f| PyString::intern(py, &f.name.wire).unbind())
+                    .collect(),
+            })
+        });
+        Arc::clone(made)
+    }
+
     /// What `types` asks for: message names (any case), `UNKNOWN_<id>` for an id the dialect
     /// lacks, `BAD_DATA` (which a reader that skips damage never yields). `None` asks for all.
     pub fn wanted(&self, types: Option<Vec<String>>) -> PyResult<Wanted> {
@@ -76,6 +104,7 @@ pub fn load(name: &str) -> PyResult<Arc<Loaded>> {
     let d = Arc::new(Loaded {
         decoder: dialects.decoder(),
         table: dialects.table.clone(),
+        names: Mutex::new(HashMap::new()),
     });
     loaded.push((name.to_owned(), Arc::clone(&d)));
     Ok(d)

@@ -7,6 +7,7 @@ use ferrolink_dictionary::ir::{Field, Message as IrMessage, Primitive};
 use ferrolink_io::mavlink::Frame;
 use ferrolink_runtime::mavlink::{v1, v2};
 use pyo3::exceptions::PyAttributeError;
+use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyString};
 
@@ -183,8 +184,9 @@ pub fn from_frame(
 #[pymethods]
 impl Message {
     /// The message's name: `"ATTITUDE"`.
-    fn get_type(&self) -> PyResult<&str> {
-        Ok(&self.message()?.name.wire)
+    fn get_type(&self, py: Python<'_>) -> PyResult<Py<PyString>> {
+        let names = self.dialect.names(py, self.id, self.message()?);
+        Ok(names.message.clone_ref(py))
     }
 
     /// Its id.
@@ -256,11 +258,12 @@ impl Message {
     /// `{"mavpackettype": NAME, field: value, ...}`, as pymavlink's `to_dict()`.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let message = self.message()?;
+        let names = self.dialect.names(py, self.id, message);
         let dict = PyDict::new(py);
-        dict.set_item("mavpackettype", &message.name.wire)?;
+        dict.set_item(intern!(py, "mavpackettype"), names.message.bind(py))?;
         let payload = self.payload();
-        for field in &message.fields {
-            dict.set_item(&field.name.wire, value(py, field, payload)?)?;
+        for (field, name) in message.fields.iter().zip(&names.fields) {
+            dict.set_item(name.bind(py), value(py, field, payload)?)?;
         }
         Ok(dict)
     }
