@@ -4,9 +4,9 @@ use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
+use ferrolink_dictionary::ir::Message as IrMessage;
 use ferrolink_runtime::mavlink::MessageMeta;
 use ferrolink_traffic::{Dialects, PayloadDecoder};
-use ferrolink_dictionary::ir::Message as IrMessage;
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 

@@ -299,7 +299,7 @@ impl Tables {
 
     /// Whether frames of id `id` are wanted (asked for, and known).
     pub fn wants(&self, id: u32) -> bool {
-        self.wanted.as_ref().map_or(true, |w| w.contains(&id)) && self.decoder.message(id).is_some()
+        self.wanted.as_ref().is_none_or(|w| w.contains(&id)) && self.decoder.message(id).is_some()
     }
 
     /// Appends a frame's payload as a row of its message's table. Ids not wanted are skipped;
