@@ -28,11 +28,11 @@ pub fn run(
         let stats = reader
             .read_all(|record| {
                 let frame = &record.frame;
-                if failed.is_some() || !export.wants(frame.msg_id()) {
+                if failed.is_some() {
                     return;
                 }
                 let header = frame.header();
-                rows += 1;
+                rows += u64::from(export.wants(frame.msg_id()));
                 let pushed = export.push(
                     record.t_us,
                     header.sysid,

@@ -205,7 +205,7 @@ pub fn save_parquet(
             let mut failed = None;
             reader.read_all(|record| {
                 let frame = &record.frame;
-                if failed.is_some() || !export.wants(frame.msg_id()) {
+                if failed.is_some() {
                     return;
                 }
                 let h = frame.header();

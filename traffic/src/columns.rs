@@ -118,22 +118,6 @@ impl Values {
             Values::Text(v) => Arc::new(StringArray::from(std::mem::take(v))),
         }
     }
-
-    fn len(&self) -> usize {
-        match self {
-            Values::U8(v) => v.len(),
-            Values::U16(v) => v.len(),
-            Values::U32(v) => v.len(),
-            Values::U64(v) => v.len(),
-            Values::I8(v) => v.len(),
-            Values::I16(v) => v.len(),
-            Values::I32(v) => v.len(),
-            Values::I64(v) => v.len(),
-            Values::F32(v) => v.len(),
-            Values::F64(v) => v.len(),
-            Values::Text(v) => v.len(),
-        }
-    }
 }
 
 /// The Arrow type of one element of a field.
@@ -302,9 +286,17 @@ impl Tables {
         self.wanted.as_ref().is_none_or(|w| w.contains(&id)) && self.decoder.message(id).is_some()
     }
 
-    /// Appends a frame's payload as a row of its message's table. Ids not wanted are skipped;
-    /// a short payload is zero-filled (the MAVLink 2 truncation rule).
-    pub fn push(&mut self, t_us: Option<u64>, sysid: u8, compid: u8, id: u32, payload: &[u8]) {
+    /// Appends a frame's payload as a row of its message's table, and returns how many rows that
+    /// table now holds. Ids not wanted are skipped (0); a short payload is zero-filled (the
+    /// MAVLink 2 truncation rule).
+    pub fn push(
+        &mut self,
+        t_us: Option<u64>,
+        sysid: u8,
+        compid: u8,
+        id: u32,
+        payload: &[u8],
+    ) -> usize {
         let table = match self.by_id.entry(id) {
             Entry::Occupied(t) => t.into_mut(),
             Entry::Vacant(slot) => {
@@ -313,7 +305,7 @@ impl Tables {
                     Some(message) if wanted => {
                         slot.insert(Table::new(message, !self.logs.is_empty()))
                     }
-                    _ => return,
+                    _ => return 0,
                 }
             }
         };
@@ -331,6 +323,7 @@ impl Tables {
         for (values, &(offset, size)) in table.fields.iter_mut().zip(&table.layout) {
             values.push(&self.scratch[offset..offset + size]);
         }
+        table.rows()
     }
 
     /// The tables of at least `min_rows` rows, by message name, as batches; they start over
@@ -350,13 +343,5 @@ impl Tables {
     /// Every table with rows, by message name in id order.
     pub fn finish(mut self) -> Vec<(String, RecordBatch)> {
         self.take_full(1)
-    }
-
-    /// How many values the tables hold, for a writer's memory bound.
-    pub fn held(&self) -> usize {
-        self.by_id
-            .values()
-            .map(|t| t.fields.iter().map(Values::len).sum::<usize>() + t.rows())
-            .sum()
     }
 }

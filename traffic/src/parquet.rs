@@ -53,7 +53,8 @@ impl ParquetExport {
         self.tables.wants(id)
     }
 
-    /// Appends a frame as a row; full row groups are written.
+    /// Appends a frame as a row (frames not wanted are skipped); a message type's rows go out
+    /// as a row group once there are 65,536.
     pub fn push(
         &mut self,
         t_us: Option<u64>,
@@ -62,8 +63,7 @@ impl ParquetExport {
         id: u32,
         payload: &[u8],
     ) -> io::Result<()> {
-        self.tables.push(t_us, sysid, compid, id, payload);
-        if self.tables.held() >= 16 * ROW_GROUP {
+        if self.tables.push(t_us, sysid, compid, id, payload) >= ROW_GROUP {
             self.write(ROW_GROUP)?;
         }
         Ok(())
