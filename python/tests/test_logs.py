@@ -36,6 +36,18 @@ def test_every_ardupilotmega_message_decodes_as_pymavlink_decodes_it(generated_t
     check_same(ours, theirs)
 
 
+def test_with_common_the_other_messages_come_as_pymavlink_unknowns(generated_tlog):
+    from conftest import mavutil
+
+    conn = mavutil.mavlink_connection(str(generated_tlog), dialect="common")
+    theirs = []
+    while (m := conn.recv_match()) is not None:
+        theirs.append(m)
+    ours = list(mavlink.open_log(generated_tlog, dialect="common"))
+    assert any(m.get_type().startswith("UNKNOWN_") for m in ours)
+    check_same(ours, theirs)
+
+
 def test_fields_are_attributes_as_pymavlink_has_them(generated_tlog):
     for a, b in zip(mavlink.open_log(generated_tlog), pymavlink_messages(generated_tlog)):
         for name in b.get_fieldnames():
