@@ -5,7 +5,8 @@ use std::sync::Arc;
 
 use ferrolink_dictionary::ir::{Field, Message as IrMessage, Primitive};
 use ferrolink_io::mavlink::Frame;
-use ferrolink_runtime::mavlink::{v1, v2};
+use ferrolink_runtime::mavlink::{v1, v2, AnyFrame, Version};
+use ferrolink_traffic::{python_text, wire_value, Value};
 use pyo3::exceptions::PyAttributeError;
 use pyo3::intern;
 use pyo3::prelude::*;
@@ -13,37 +14,13 @@ use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyString};
 
 use crate::dialect::Loaded;
 
-/// `char` bytes as pymavlink shows them: cut at the first NUL, bytes above 0x7f as U+FFFD.
-fn python_text(bytes: &[u8]) -> String {
-    bytes
-        .iter()
-        .take_while(|&&b| b != 0)
-        .map(|&b| {
-            if b.is_ascii() {
-                char::from(b)
-            } else {
-                '\u{fffd}'
-            }
-        })
-        .collect()
-}
-
-/// One little-endian element as pymavlink gives it: an `int`, or a `float` widened exactly.
+/// One element as pymavlink gives it: an `int`, or a `float` widened exactly.
 fn element<'py>(py: Python<'py>, primitive: Primitive, b: &[u8]) -> PyResult<Bound<'py, PyAny>> {
-    let mut raw = [0u8; 8];
-    raw[..b.len()].copy_from_slice(b);
-    let raw = u64::from_le_bytes(raw);
-    let shift = 64 - 8 * b.len() as u32;
-    let signed = ((raw << shift) as i64) >> shift;
-    Ok(match primitive {
-        Primitive::F32 => f64::from(f32::from_bits(raw as u32))
-            .into_pyobject(py)?
-            .into_any(),
-        Primitive::F64 => f64::from_bits(raw).into_pyobject(py)?.into_any(),
-        Primitive::I8 | Primitive::I16 | Primitive::I32 | Primitive::I64 => {
-            signed.into_pyobject(py)?.into_any()
-        }
-        _ => raw.into_pyobject(py)?.into_any(),
+    Ok(match wire_value(primitive, b) {
+        Value::Unsigned(v) => v.into_pyobject(py)?.into_any(),
+        Value::Signed(v) => v.into_pyobject(py)?.into_any(),
+        Value::Float(v) => v.into_pyobject(py)?.into_any(),
+        Value::Text(t) => PyString::new(py, &t).into_any(),
     })
 }
 
@@ -72,15 +49,6 @@ fn value<'py>(py: Python<'py>, field: &Field, payload: &[u8]) -> PyResult<Bound<
         .map(|e| element(py, primitive, e))
         .collect::<PyResult<Vec<_>>>()?;
     Ok(PyList::new(py, items)?.into_any())
-}
-
-/// A frame's parts: header length and payload length, by its magic.
-fn layout(frame: &[u8]) -> (usize, usize) {
-    let head = match frame.first() {
-        Some(&v1::MAGIC) => v1::HEADER_LEN,
-        _ => v2::HEADER_LEN,
-    };
-    (head, frame.get(1).map_or(0, |&l| usize::from(l)))
 }
 
 /// pymavlink's `MAVLink_header`.
@@ -116,25 +84,35 @@ impl Message {
             .ok_or_else(|| PyAttributeError::new_err(format!("unknown message id {}", self.id)))
     }
 
+    /// The frame (a parser accepted it, so its length is right).
+    fn view(&self) -> AnyFrame<&[u8]> {
+        AnyFrame::new_checked(&self.frame[..])
+            .unwrap_or_else(|_| AnyFrame::V2(v2::Frame::new_unchecked(&[0; v2::MIN_FRAME_LEN][..])))
+    }
+
     fn payload(&self) -> &[u8] {
-        let (head, len) = layout(&self.frame);
+        let frame = self.view();
+        let head = match frame.version() {
+            Version::V1 => v1::HEADER_LEN,
+            Version::V2 => v2::HEADER_LEN,
+        };
+        let len = usize::from(frame.payload_len());
         self.frame.get(head..head + len).unwrap_or_default()
     }
 
     fn header_fields(&self) -> Header {
-        let f = &self.frame;
-        let (v2, at) = (f.first() == Some(&v2::MAGIC), |i: usize| {
-            f.get(i).copied().unwrap_or(0)
-        });
-        let (flags, rest) = if v2 { ((at(2), at(3)), 4) } else { ((0, 0), 2) };
+        let frame = self.view();
+        let flags = frame
+            .as_v2()
+            .map_or((0, 0), |f| (f.incompat_flags(), f.compat_flags()));
         Header {
             msgId: i64::from(self.id),
             incompat_flags: flags.0,
             compat_flags: flags.1,
-            mlen: at(1),
-            seq: at(rest),
-            srcSystem: at(rest + 1),
-            srcComponent: at(rest + 2),
+            mlen: frame.payload_len(),
+            seq: frame.seq(),
+            srcSystem: frame.sysid(),
+            srcComponent: frame.compid(),
         }
     }
 }
@@ -219,7 +197,7 @@ impl Message {
 
     /// Whether the frame carried a MAVLink 2 signature.
     fn get_signed(&self) -> bool {
-        self.frame.first() == Some(&v2::MAGIC) && self.frame.get(2).is_some_and(|f| f & 1 != 0)
+        self.view().is_signed()
     }
 
     /// The whole frame as received.

@@ -2,7 +2,7 @@
 
 use ferrolink_dictionary::ir::{Field, Primitive};
 
-use crate::value::{python_text, scalar};
+use crate::value::{python_text, wire_value};
 use crate::{PayloadDecoder, Value};
 
 impl PayloadDecoder {
@@ -24,15 +24,9 @@ impl PayloadDecoder {
         let n = payload.len().min(buf.len());
         buf[..n].copy_from_slice(&payload[..n]);
         let number = |primitive: Primitive, bytes: &[u8]| -> Json {
-            match scalar(primitive, bytes) {
+            match wire_value(primitive, bytes) {
                 Value::Unsigned(v) => Json::from(v),
                 Value::Signed(v) => Json::from(v),
-                // `scalar` widens through the shortest decimal; pymavlink widens exactly.
-                Value::Float(_) if primitive == Primitive::F32 => {
-                    let mut raw = [0u8; 4];
-                    raw.copy_from_slice(bytes);
-                    Json::from(f64::from(f32::from_le_bytes(raw)))
-                }
                 Value::Float(v) => Json::from(v),
                 Value::Text(_) => Json::Null,
             }

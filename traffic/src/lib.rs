@@ -43,4 +43,4 @@ pub use dialect::Dialects;
 pub use export::{CsvExport, RowMeta, UNKNOWN_FILE};
 pub use json::FrameDefaults;
 pub use table::message_table;
-pub use value::Value;
+pub use value::{python_text, wire_value, Value};

@@ -51,6 +51,20 @@ impl fmt::Display for Value {
     }
 }
 
+/// One little-endian element exactly as pymavlink reads it: integers as they are, a `float`
+/// widened exactly to `f64` (not through its shortest decimal, as [`Value::from_f32`] does),
+/// a `char` as text; `bytes` is exactly `primitive.size()` long.
+pub fn wire_value(primitive: Primitive, bytes: &[u8]) -> Value {
+    match primitive {
+        Primitive::F32 => {
+            let mut raw = [0u8; 4];
+            raw.copy_from_slice(bytes);
+            Value::Float(f64::from(f32::from_le_bytes(raw)))
+        }
+        _ => scalar(primitive, bytes),
+    }
+}
+
 /// One little-endian scalar; `bytes` is exactly `primitive.size()` long.
 pub(crate) fn scalar(primitive: Primitive, bytes: &[u8]) -> Value {
     let mut raw = [0u8; 8];
@@ -80,7 +94,7 @@ pub(crate) fn scalar(primitive: Primitive, bytes: &[u8]) -> Value {
 
 /// `char` bytes as pymavlink 2.4.50 shows them: cut at the first NUL, then ASCII with every
 /// byte above 0x7f replaced by U+FFFD (Python's `decode("ascii", errors="replace")`).
-pub(crate) fn python_text(bytes: &[u8]) -> String {
+pub fn python_text(bytes: &[u8]) -> String {
     bytes
         .iter()
         .take_while(|&&b| b != 0)
