@@ -32,8 +32,9 @@ pub enum Command {
         /// (CRC_EXTRA, targets); repeatable [default: all, every standard dialect].
         #[arg(long, value_name = "NAME|FILE")]
         dialect: Vec<PathBuf>,
-        /// Log every frame received (passed its CRC, or an unknown id) to this .tlog.
-        #[arg(long, value_name = "FILE")]
+        /// Log every frame received (passed its CRC, or an unknown id): to FILE.tlog, appended
+        /// to, or into DIR, a new numbered file per run (NNNNN-YYYY-MM-DD_HH-MM-SS.tlog, UTC).
+        #[arg(long, value_name = "FILE.tlog|DIR")]
         tlog: Option<PathBuf>,
         /// Write statistics as one JSON object per line, every second and at exit.
         #[arg(long, value_name = "FILE")]
@@ -327,8 +328,9 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 endpoints: all,
                 table,
                 tlog: tlog.or(file.tlog),
+                retention: file.retention,
                 stats_json: stats_json.or(file.stats_json),
-                stats_every: stats,
+                stats_every: stats.or(file.stats_every),
                 run_for,
                 peer_expiry: Some(
                     peer_expiry

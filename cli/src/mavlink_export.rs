@@ -17,11 +17,15 @@ pub fn run(
     files: &[PathBuf],
 ) -> Result<ExitCode, Box<dyn std::error::Error>> {
     let dialects = crate::dialect::load(dialect, crate::dialect::DEFAULT)?;
+    // Every file must open before anything is written.
+    let readers = files
+        .iter()
+        .map(|file| LogReader::open(file, &dialects.table[..], raw))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut export = ParquetExport::new(dir, dialects.decoder(), types)?;
     let mut summary = Vec::new();
-    for file in files {
+    for (file, mut reader) in files.iter().zip(readers) {
         let unreadable = |e: io::Error| format!("{}: {e}", file.display());
-        let mut reader = LogReader::open(file, &dialects.table[..], raw)?;
         export.set_log(&file.display().to_string());
         let mut failed = None;
         let mut rows = 0u64;

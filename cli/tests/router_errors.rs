@@ -35,8 +35,8 @@ fn a_main_conf_log_directory_that_is_missing() {
     )
     .expect("write");
     insta::assert_snapshot!(refused(&["--config", config.to_str().expect("utf-8")]), @r"
-    tlog /nonexistent/dir/flight.tlog: No such file or directory (os error 2)
-      hint: the directory /nonexistent/dir does not exist
+    tlog /nonexistent/dir: no such directory
+      hint: create it for a log per run, or give a file name ending in .tlog
     ");
 }
 

@@ -154,10 +154,7 @@ Colour = blue
             "tcpout://10.0.0.2:5790"
         ]
     );
-    assert_eq!(
-        c.tlog.as_deref(),
-        Some(Path::new("/var/log/flight/flight.tlog"))
-    );
+    assert_eq!(c.tlog.as_deref(), Some(Path::new("/var/log/flight")));
     let gcs = &c.endpoints[2].link;
     assert_eq!(gcs.outbound.allow_msg.as_slice(), [0, 30]);
     assert!(gcs.inbound.block_src_sys.contains(66));
@@ -202,6 +199,59 @@ Port = 14551
     );
 }
 
+/// Every `[General]` key mavlink-router documents is honoured, or reported once with what the
+/// router does instead.
+#[test]
+fn main_conf_general_keys_are_honoured_or_reported() {
+    let text = "
+[General]
+ReportStats = true
+MavlinkDialect = ardupilotmega
+LogMode = while-armed
+MinFreeSpace = 1000000
+MaxLogFiles = 10
+LogSystemId = 1
+SnifferSysid = 254
+DebugLogLevel = debug
+
+[UartEndpoint a]
+Device = /dev/ttyUSB0
+FlowControl = false
+
+[UdpEndpoint b]
+Address = 127.0.0.1
+Port = 14550
+Filter = 0,30
+";
+    let c = from_main_conf(text).unwrap();
+    assert_eq!(c.stats_every, Some(std::time::Duration::from_secs(1)));
+    assert_eq!(
+        (c.retention.max_files, c.retention.min_free_bytes),
+        (Some(10), Some(1_000_000))
+    );
+    assert_eq!(c.dialects, [Path::new("ardupilotmega")]);
+    assert_eq!(c.endpoints[1].link.outbound.allow_msg.as_slice(), [0, 30]);
+    insta::assert_debug_snapshot!(c.warnings, @r#"
+    [
+        "[General] LogMode = while-armed: not supported; the log is written all the time",
+        "[General] DebugLogLevel = debug: not supported; the router has no log levels; it prints its errors and warnings",
+        "[General] LogSystemId = 1: not supported; the log holds every system's frames",
+        "[General] SnifferSysid = 254: not supported; there is no sniffer; every system's frames are routed by their targets",
+    ]
+    "#);
+    let quiet =
+        from_main_conf("[General]\nReportStats = false\nMavlinkDialect = auto\nLogMode = always\n")
+            .unwrap();
+    assert_eq!(
+        (
+            quiet.stats_every,
+            quiet.dialects.len(),
+            quiet.warnings.len()
+        ),
+        (None, 0, 0)
+    );
+}
+
 #[test]
 fn main_conf_errors_say_where() {
     let err = |text: &str| from_main_conf(text).unwrap_err().to_string();
@@ -213,6 +263,9 @@ fn main_conf_errors_say_where() {
     // Found by fuzzing: an empty value is no device or address either.
     insta::assert_snapshot!(err("[UartEndpoint a]\nDevice = \n"), @"[UartEndpoint a]: Device is missing");
     insta::assert_snapshot!(err("[UdpEndpoint a]\nAddress =\nPort = 1\n"), @"[UdpEndpoint a]: Address is empty");
+    insta::assert_snapshot!(err("[General]\nReportStats = maybe\n"), @r#"[General] ReportStats = "maybe": expected true or false"#);
+    insta::assert_snapshot!(err("[General]\nMavlinkDialect = px4\n"), @r#"[General] MavlinkDialect = "px4": expected auto, common or ardupilotmega"#);
+    insta::assert_snapshot!(err("[UartEndpoint a]\nDevice = /dev/x\nFlowControl = sometimes\n"), @r#"[UartEndpoint a] FlowControl = "sometimes": expected true or false"#);
     insta::assert_snapshot!(err("[UartEndpoint a]\nDevice = /dev/ttyS1\nBaud = 0\n"), @r#"[UartEndpoint a] Baud = "0": not a baud rate"#);
     insta::assert_snapshot!(err("[UdpEndpoint a]\nAddress = 10.0.0.1]\nPort = 1\n"), @r#"[UdpEndpoint a] Address = "10.0.0.1]": not a host"#);
     insta::assert_snapshot!(err("[TcpEndpoint a]\nAddress = \nPort = 1\n"), @"[TcpEndpoint a]: Address is missing");
@@ -297,8 +350,16 @@ fn the_every_key_fuzz_seeds_set_every_key() {
     assert!(first.group != 0 && first.dedup_window_us != 0 && first.max_delay_us != 0);
 
     let c = from_main_conf(&read("every-key.conf")).unwrap();
-    // No key went unread: the one warning is for the section the seed adds to be ignored.
-    assert_eq!(c.warnings, ["[Unknown]: unknown section, ignored"]);
+    // Every key was read: the warnings are for keys the router does not honour, each saying
+    // what it does instead, and for the section the seed adds to be ignored.
+    insta::assert_debug_snapshot!(c.warnings, @r#"
+    [
+        "[General] DebugLogLevel = info: not supported; the router has no log levels; it prints its errors and warnings",
+        "[UartEndpoint autopilot] FlowControl = true: not supported; the port is opened without flow control",
+        "[TcpEndpoint companion] RetryTimeout = 5: not supported; the connection is retried with a backoff from 50 ms doubling to 1 s",
+        "[Unknown]: unknown section, ignored",
+    ]
+    "#);
     assert!(c.tlog.is_some());
     let kinds: Vec<_> = c
         .endpoints

@@ -179,7 +179,7 @@ pub fn load_tables(
 }
 
 /// Writes the logs `paths` into `out_dir`, one Parquet file per message type with a `log`
-/// column: `{name: path}`.
+/// column: `[(name, path, rows)]`.
 #[pyfunction]
 #[pyo3(signature = (paths, out_dir, dialect, types=None, raw=false))]
 pub fn save_parquet(
@@ -191,14 +191,14 @@ pub fn save_parquet(
     raw: bool,
 ) -> PyResult<Vec<(String, String, u64)>> {
     let dialect = dialect::load(dialect)?;
-    let mut export = ParquetExport::new(&out_dir, dialect.decoder.clone(), types.as_deref())
-        .map_err(error::value)?;
     // Every file must open before anything is written.
     let readers = paths
         .iter()
         .map(|p| LogReader::open(p, dialect.table.clone(), raw))
         .collect::<Result<Vec<_>, _>>()
         .map_err(error::io)?;
+    let mut export = ParquetExport::new(&out_dir, dialect.decoder.clone(), types.as_deref())
+        .map_err(error::value)?;
     py.detach(|| -> std::io::Result<()> {
         for (path, mut reader) in paths.iter().zip(readers) {
             export.set_log(&path.display().to_string());

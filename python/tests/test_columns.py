@@ -97,6 +97,10 @@ def test_load_log_errors(tmp_path, generated_tlog):
         mavlink.load_log(generated_tlog, to="excel")
     with pytest.raises(ValueError, match="unknown message type"):
         mavlink.load_log(generated_tlog, types=["NOPE"])
+    # A missing log, even after one that is there: nothing is written.
+    with pytest.raises(FileNotFoundError, match="nope.tlog"):
+        mavlink.save_parquet([generated_tlog, tmp_path / "nope.tlog"], tmp_path / "out")
+    assert not (tmp_path / "out").exists()
 
 
 def logs_for_fleet(captures, generated_tlog):

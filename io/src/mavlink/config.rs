@@ -4,7 +4,9 @@
 //! TOML:
 //!
 //! ```toml
-//! tlog = "flight.tlog"            # optional, as --tlog
+//! tlog = "flight.tlog"            # optional, as --tlog: a .tlog appended to, or a directory
+//! max_log_files = 100             # a tlog directory keeps this many logs, the oldest deleted
+//! min_free_space = 100_000_000    # and this many bytes free
 //! stats_json = "stats.jsonl"      # optional, as --stats-json
 //! peer_expiry = 10.0              # seconds
 //! queue_bytes = 65536             # a TCP, serial or pty peer's output queue, in bytes
@@ -28,14 +30,33 @@
 //! An endpoint's `uri` may also be of a scheme the caller registers ([`from_toml_with`]; the
 //! CLI registers `zenoh://`); such endpoints land in [`FileConfig::extra`].
 //!
-//! `main.conf` (the keys people use): `[General]` `TcpServerPort`, `Log` (a directory: the tlog
-//! goes there), `DeduplicationPeriod` (ms, for every endpoint); `[UartEndpoint NAME]` `Device`,
-//! `Baud` (the first of a list); `[UdpEndpoint NAME]` `Mode` (`Normal`/`Client` sends to
-//! `Address:Port`, `Server` or `Eavesdropping` listens there), `Address`, `Port`; `[TcpEndpoint
-//! NAME]` `Address`, `Port`; and in every endpoint `Group` and the filters `AllowMsgIdOut`,
-//! `BlockMsgIdOut`, `AllowSrcCompOut`, `BlockSrcCompOut`, `AllowSrcSysOut`, `BlockSrcSysOut` and
-//! their `In` counterparts, as comma-separated lists. Keys are case-insensitive, as mavlink-router
-//! reads them. Other keys are reported as warnings, never silently ignored.
+//! `main.conf`, mavlink-router's form. Keys are case-insensitive, as mavlink-router reads them.
+//! Every key it documents is honoured, or reported once as a warning that names the key and
+//! says what the router does instead; any other key is reported as not supported. Nothing is
+//! silently ignored.
+//!
+//! Honoured:
+//! - `[General]` `TcpServerPort` (0: none); `Log` (a directory: a new numbered tlog per run),
+//!   `MaxLogFiles` and `MinFreeSpace` (bytes; the oldest logs there are deleted when a run
+//!   starts, never the new one);
+//!   `DeduplicationPeriod` (ms, for every endpoint); `ReportStats` (`true`: link statistics
+//!   on stderr every second, as `--stats 1`); `MavlinkDialect` (`auto`: every standard
+//!   dialect, our default; `common` or `ardupilotmega`: that built-in dialect); `LogMode =
+//!   always` (what the router does).
+//! - `[UartEndpoint NAME]` `Device`, `Baud` (the first of a list), `FlowControl = false`.
+//! - `[UdpEndpoint NAME]` `Mode` (`Normal`/`Client` sends to `Address:Port`, `Server` or
+//!   `Eavesdropping` listens there), `Address`, `Port`, and `Filter` (the old name of
+//!   `AllowMsgIdOut`).
+//! - `[TcpEndpoint NAME]` `Address`, `Port`.
+//! - In every endpoint `Group` and the filters `AllowMsgIdOut`, `BlockMsgIdOut`,
+//!   `AllowSrcCompOut`, `BlockSrcCompOut`, `AllowSrcSysOut`, `BlockSrcSysOut` and their `In`
+//!   counterparts, as comma-separated lists.
+//!
+//! Reported, with what the router does instead: `DebugLogLevel` (it has no levels: it prints
+//! its errors and warnings), `LogMode = while-armed` (the log is written all the time),
+//! `LogSystemId` (the log holds every system's frames), `SnifferSysid` (no sniffer: every system's frames are routed by their
+//! targets), `FlowControl = true` (the port is opened without flow control) and `RetryTimeout`
+//! (a TCP client reconnects with a backoff from 50 ms doubling to 1 s).
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -47,6 +68,7 @@ use ferrolink_runtime::mavlink::signing::SecretKey;
 use ferrolink_runtime::mavlink::v2;
 use serde::Deserialize;
 
+use super::tlog::Retention;
 use crate::link::{Endpoint, OutputQueue, Overflow};
 use crate::uri::{is_host, Extension, Target};
 
@@ -84,6 +106,10 @@ pub struct FileConfig<X = ()> {
     pub tlog: Option<PathBuf>,
     /// Where to write statistics.
     pub stats_json: Option<PathBuf>,
+    /// How often to print link statistics (`main.conf`'s `ReportStats`).
+    pub stats_every: Option<Duration>,
+    /// What a tlog directory keeps.
+    pub retention: Retention,
     /// How long a quiet UDP peer keeps its link.
     pub peer_expiry: Option<Duration>,
     /// The output queue of stream peers, when the file sets it.
@@ -102,6 +128,8 @@ impl<X> Default for FileConfig<X> {
             dialects: Vec::new(),
             tlog: None,
             stats_json: None,
+            stats_every: None,
+            retention: Retention::default(),
             peer_expiry: None,
             queue: None,
             one_frame_per_datagram: None,
@@ -120,6 +148,8 @@ impl FileConfig {
             dialects: self.dialects,
             tlog: self.tlog,
             stats_json: self.stats_json,
+            stats_every: self.stats_every,
+            retention: self.retention,
             peer_expiry: self.peer_expiry,
             queue: self.queue,
             one_frame_per_datagram: self.one_frame_per_datagram,
@@ -173,6 +203,8 @@ struct TomlFile {
     #[serde(default)]
     dialects: Vec<PathBuf>,
     tlog: Option<PathBuf>,
+    max_log_files: Option<usize>,
+    min_free_space: Option<u64>,
     stats_json: Option<PathBuf>,
     peer_expiry: Option<f64>,
     queue_bytes: Option<usize>,
@@ -398,6 +430,11 @@ pub fn from_toml_with<X>(
         dialects: file.dialects.iter().map(|d| base.join(d)).collect(),
         tlog: file.tlog,
         stats_json: file.stats_json,
+        stats_every: None,
+        retention: Retention {
+            max_files: file.max_log_files,
+            min_free_bytes: file.min_free_space,
+        },
         peer_expiry,
         queue: queue(file.queue_bytes, file.queue_drop)?,
         one_frame_per_datagram: file.one_frame_per_datagram,
@@ -446,6 +483,8 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
         let kind = name.split_whitespace().next().unwrap_or("");
         let at = format!("[{name}]");
         let mut used: Vec<&str> = Vec::new();
+        // Keys read but not honoured, each with what the router does instead.
+        let mut notes: Vec<String> = Vec::new();
         let mut get = |key: &'static str| {
             used.push(key);
             keys.get(key).map(String::as_str)
@@ -485,14 +524,63 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                     }
                 }
                 if let Some(dir) = get("log") {
-                    config.tlog = Some(Path::new(dir).join("flight.tlog"));
+                    // A directory: a new numbered log per run, as mavlink-router writes them.
+                    config.tlog = Some(PathBuf::from(dir));
                 }
+                config.retention = Retention {
+                    max_files: number("MaxLogFiles", get("maxlogfiles"))?
+                        .map(|n| usize::try_from(n).unwrap_or(usize::MAX)),
+                    min_free_bytes: number("MinFreeSpace", get("minfreespace"))?,
+                };
                 dedup_us = number("DeduplicationPeriod", get("deduplicationperiod"))?
                     .unwrap_or(0)
                     .saturating_mul(1000);
-                // Settings without a counterpart here, accepted so a file can be reused.
-                for ignored in ["reportstats", "debugloglevel", "logmode", "mavlinkdialect"] {
-                    let _ = get(ignored);
+                if let Some(v) = get("reportstats") {
+                    if boolean(v).ok_or_else(|| {
+                        error(format!("{at} ReportStats = {v:?}: expected true or false"))
+                    })? {
+                        config.stats_every = Some(Duration::from_secs(1));
+                    }
+                }
+                match get("mavlinkdialect")
+                    .map(str::to_ascii_lowercase)
+                    .as_deref()
+                {
+                    None | Some("auto") => {}
+                    Some(name @ ("common" | "ardupilotmega")) => config.dialects.push(name.into()),
+                    Some(other) => {
+                        return Err(error(format!(
+                        "{at} MavlinkDialect = {other:?}: expected auto, common or ardupilotmega"
+                    )))
+                    }
+                }
+                match get("logmode").map(str::to_ascii_lowercase).as_deref() {
+                    None | Some("always") => {}
+                    Some(mode) => notes.push(format!(
+                        "{at} LogMode = {mode}: not supported; the log is written all the time"
+                    )),
+                }
+                let instead = [
+                    (
+                        "debugloglevel",
+                        "DebugLogLevel",
+                        "the router has no log levels; it prints its errors and warnings",
+                    ),
+                    (
+                        "logsystemid",
+                        "LogSystemId",
+                        "the log holds every system's frames",
+                    ),
+                    (
+                        "sniffersysid",
+                        "SnifferSysid",
+                        "there is no sniffer; every system's frames are routed by their targets",
+                    ),
+                ];
+                for (key, name, what) in instead {
+                    if let Some(v) = get(key) {
+                        notes.push(format!("{at} {name} = {v}: not supported; {what}"));
+                    }
                 }
                 None
             }
@@ -511,7 +599,16 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                     })
                     .transpose()?
                     .unwrap_or(115_200);
-                let _ = get("flowcontrol");
+                if let Some(v) = get("flowcontrol") {
+                    let on = boolean(v).ok_or_else(|| {
+                        error(format!("{at} FlowControl = {v:?}: expected true or false"))
+                    })?;
+                    if on {
+                        notes.push(format!(
+                            "{at} FlowControl = {v}: not supported; the port is opened without flow control"
+                        ));
+                    }
+                }
                 Some(Endpoint::Serial(device.to_owned(), baud))
             }
             "udpendpoint" => {
@@ -544,7 +641,11 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                 if !is_host(&address) {
                     return Err(error(format!("{at} Address = {address:?}: not a host")));
                 }
-                let _ = get("retrytimeout");
+                if let Some(v) = get("retrytimeout") {
+                    notes.push(format!(
+                        "{at} RetryTimeout = {v}: not supported; the connection is retried with a backoff from 50 ms doubling to 1 s"
+                    ));
+                }
                 Some(Endpoint::TcpOut(address, sent_to(port(get("port"))?)?))
             }
             _ => {
@@ -561,6 +662,11 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
             };
             let mut link: LinkConfig = LinkConfig::default();
             link.outbound.allow_msg = filter_ids("allowmsgidout")?;
+            // `Filter`, the old name of `AllowMsgIdOut` (of UDP endpoints).
+            let old_filter = filter_ids("filter")?;
+            if !old_filter.is_empty() {
+                link.outbound.allow_msg = old_filter;
+            }
             link.outbound.block_msg = filter_ids("blockmsgidout")?;
             link.inbound.allow_msg = filter_ids("allowmsgidin")?;
             link.inbound.block_msg = filter_ids("blockmsgidin")?;
@@ -580,6 +686,7 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
             }
             config.endpoints.push(EndpointConfig { endpoint, link });
         }
+        config.warnings.append(&mut notes);
         for key in keys.keys() {
             if !used.contains(&key.as_str()) {
                 config
@@ -594,6 +701,15 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
         e.link.dedup_window_us = dedup_us;
     }
     Ok(config)
+}
+
+/// A `main.conf` boolean, as mavlink-router reads one.
+fn boolean(value: &str) -> Option<bool> {
+    match value.to_ascii_lowercase().as_str() {
+        "true" | "1" | "yes" | "on" => Some(true),
+        "false" | "0" | "no" | "off" => Some(false),
+        _ => None,
+    }
 }
 
 /// A comma-separated list of numbers (absent: empty).

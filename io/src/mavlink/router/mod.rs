@@ -44,8 +44,11 @@ pub struct Config {
     pub endpoints: Vec<EndpointConfig>,
     /// The messages it knows (CRC_EXTRA, target offsets), sorted by id.
     pub table: Arc<[MessageMeta]>,
-    /// Log every frame received here.
+    /// Log every frame received here: a `.tlog` file appended to, or a directory that gets a
+    /// new numbered file per run (see [`tlog::files::open`]).
     pub tlog: Option<PathBuf>,
+    /// What a log directory keeps.
+    pub retention: tlog::Retention,
     /// Append a JSON object of statistics here every second and at exit.
     pub stats_json: Option<PathBuf>,
     /// Print a statistics table this often.
@@ -578,9 +581,20 @@ pub fn run_reloading(
     };
     // The tlog and the statistics file are written by threads of their own: a FIFO nobody
     // reads, or a disk that stalls, loses their records (counted), never routing.
-    let tlog = match &config.tlog {
-        Some(path) => Some(tlog::Spool::new(create("tlog", path)?)),
-        None => None,
+    let (tlog, tlog_path) = match &config.tlog {
+        Some(path) => {
+            let opened = tlog::files::open(path, config.retention)
+                .map_err(|e| io::Error::new(e.kind(), format!("tlog {e}")))?;
+            for old in &opened.deleted {
+                say(format!(
+                    "tlog: deleted {} to keep the log directory within its limits",
+                    old.display()
+                ));
+            }
+            say(format!("tlog: writing {}", opened.path.display()));
+            (Some(tlog::Spool::new(opened.file)), Some(opened.path))
+        }
+        None => (None, None),
     };
     let mut stats_json = match &config.stats_json {
         Some(path) => Some(Printer::new(
@@ -690,13 +704,12 @@ pub fn run_reloading(
             log.hand_over();
             if let Some(e) = log.failure() {
                 s.tlog = None;
-                failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
+                failed.get_or_insert(give_up("tlog", tlog_path.as_deref(), &e));
             } else if log.dropped() > tlog_dropped && now >= tlog_noted_until {
                 // At most one note every 10 s while the file stalls.
                 say(format!(
                     "tlog {}: {} record(s) not written: the file does not keep up; routing goes on",
-                    config
-                        .tlog
+                    tlog_path
                         .as_deref()
                         .map_or("".into(), |p| p.display().to_string()),
                     log.dropped() - tlog_dropped
@@ -753,14 +766,14 @@ pub fn run_reloading(
     }
     if let Some(log) = &mut log {
         if let Err(e) = log.flush_until(deadline) {
-            failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
+            failed.get_or_insert(give_up("tlog", tlog_path.as_deref(), &e));
         } else if log.dropped() > 0 {
             let e = io::Error::other(format!(
                 "{} of {} record(s) not written: the file did not keep up",
                 log.dropped(),
                 log.records()
             ));
-            failed.get_or_insert(give_up("tlog", config.tlog.as_deref(), &e));
+            failed.get_or_insert(give_up("tlog", tlog_path.as_deref(), &e));
         }
     }
     // What is printed goes out, unless nobody reads it.

@@ -14,12 +14,7 @@ pub(super) fn say(line: String) {
 /// the directory is missing.
 pub(super) fn create(what: &str, path: &std::path::Path) -> io::Result<File> {
     File::create(path).map_err(|e| {
-        let hint = match path.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => {
-                format!("\n  hint: the directory {} does not exist", dir.display())
-            }
-            _ => String::new(),
-        };
+        let hint = tlog::files::missing_dir_hint(path);
         io::Error::new(e.kind(), format!("{what} {}: {e}{hint}", path.display()))
     })
 }

@@ -6,6 +6,8 @@
 //! `SETUP_SIGNING`'s secret key is zeroed (its checksum recomputed), the one change to a frame.
 //! [`Spool`] is a writer for a program that logs while it forwards: a file that stalls costs
 //! records, counted, never the caller's time.
+//! [`files::open`] says where a log goes: a file appended to, or a directory with a new
+//! numbered file per run and the oldest deleted as a [`Retention`] asks.
 //! [`LogReader`] reads them back from any `Read`, a chunk at a time (files larger than memory
 //! too), record by record, and resynchronises on damage; it reads raw captures of link bytes as
 //! well. [`read_tlog`] and [`read_raw`] do the same for bytes held in memory.
@@ -16,8 +18,10 @@ use std::time::Instant;
 use ferrolink_runtime::crc::mcrf4xx_digest;
 use ferrolink_runtime::mavlink::{v1, v2};
 
+pub mod files;
 mod read;
 
+pub use files::Retention;
 pub use read::{read_raw, read_tlog, LogReader, ReadStats, Record};
 
 /// `SETUP_SIGNING` (common.xml): id, CRC_EXTRA, and where its `secret_key[32]` lies.

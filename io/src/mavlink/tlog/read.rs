@@ -55,15 +55,25 @@ type FrameParser<T> = Parser<{ v2::MAX_FRAME_LEN }, T>;
 ///
 /// ```
 /// use ferrolink_io::mavlink::tlog::{LogReader, Writer};
+/// use ferrolink_runtime::mavlink::{v2, Header, MessageMeta};
 ///
+/// // HEARTBEAT: id 0, CRC_EXTRA 50, 9 bytes.
+/// let table = [MessageMeta {
+///     id: 0, crc_extra: 50, min_len: 9, max_len: 9, target_system: None, target_component: None,
+/// }];
+/// let mut frame = [0u8; v2::MAX_FRAME_LEN];
+/// let n = v2::encode_raw(Header::new(0, 1, 1), 0, 50, &[0; 9], &mut frame).unwrap();
 /// let mut log = Writer::new(Vec::new());
-/// log.write(1_700_000_000_000_000, &[0xfe, 0, 0, 1, 1, 0, 0, 0])?; // a (bad) frame
-/// let bytes = log.get_mut().clone();
-/// let mut reader = LogReader::tlog(&bytes[..], &[][..]);
-/// let mut ids = Vec::new();
-/// while reader.next_chunk(|record| ids.push(record.frame.msg_id()))? {}
-/// assert!(ids.is_empty());
-/// assert_eq!(reader.stats().skipped_bytes, 8);
+/// log.write(1_700_000_000_000_000, &frame[..n])?;
+/// log.write(1_700_000_000_020_000, &frame[..n])?;
+/// let mut bytes = log.get_mut().clone();
+/// bytes.extend_from_slice(&[0x55; 3]); // a record cut short
+///
+/// let mut reader = LogReader::tlog(&bytes[..], &table[..]);
+/// let mut times = Vec::new();
+/// while reader.next_chunk(|record| times.push(record.t_us))? {}
+/// assert_eq!(times, [Some(1_700_000_000_000_000), Some(1_700_000_000_020_000)]);
+/// assert_eq!(reader.stats().truncated_bytes, 3);
 /// # Ok::<(), std::io::Error>(())
 /// ```
 pub struct LogReader<R, T> {
