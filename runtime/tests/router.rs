@@ -257,6 +257,39 @@ fn groups_share_routes_and_never_feed_each_other() {
     assert_eq!(one(&mut r, radio_b, &hb, 600_000), (1 << gcs, None));
 }
 
+/// A broadcast address or multicast group (link 1) and two hosts heard there (links 2 and 3):
+/// a host never gets a frame twice, nor its own frames back, and a frame for one host's system
+/// goes to that host alone.
+#[test]
+fn a_host_reached_through_a_group_link_is_sent_each_frame_once() {
+    let mut r = router(4);
+    let (gcs, group, host_a, host_b) = (0, 1, 2, 3);
+    r.reached_through(host_a, group);
+    r.reached_through(host_b, group);
+    // Refused: a link is not reached through itself, nor through a closed link.
+    r.reached_through(gcs, gcs);
+    r.reached_through(gcs, 7);
+    assert_eq!(
+        one(&mut r, gcs, &heartbeat(255, 190), 0),
+        (1 << group, None)
+    );
+    // Vehicle 1 answers from host A: to the ground station, not back to the group.
+    assert_eq!(one(&mut r, host_a, &heartbeat(1, 1), 0), (1 << gcs, None));
+    one(&mut r, host_b, &heartbeat(2, 1), 0);
+    let cmd = frame(COMMAND_LONG, 255, 190, 0, (1, 1));
+    assert_eq!(one(&mut r, gcs, &cmd, 1), (1 << host_a, None));
+    assert_eq!(r.link_counters(host_a).unwrap().tx_frames, 1);
+    // Host B's vehicle commands host A's: host A alone.
+    let cmd = frame(COMMAND_LONG, 2, 1, 0, (1, 1));
+    assert_eq!(one(&mut r, host_b, &cmd, 2), (1 << host_a, None));
+    // Once the group link closes, the hosts are links like any other.
+    r.close_link(group);
+    assert_eq!(
+        one(&mut r, gcs, &heartbeat(255, 190), 3),
+        ((1 << host_a) | (1 << host_b), None)
+    );
+}
+
 #[test]
 fn filters_in_and_out() {
     let mut r = R::new(META);

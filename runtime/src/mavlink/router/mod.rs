@@ -117,6 +117,8 @@ struct Link<Rules> {
     /// Its entry in [`State::signing`], when it requires signing.
     signing: Option<u8>,
     counters: LinkCounters,
+    /// The link whose every send reaches this one too (see [`Router::reached_through`]).
+    reached_through: Option<u8>,
 }
 
 #[derive(Debug, Clone, Copy, Default)]
@@ -197,6 +199,9 @@ struct State<
     seen: [Seen; DEDUP],
     seen_next: usize,
     route_ttl_us: u64,
+    /// The links that are reached through another ([`Router::reached_through`]): routing
+    /// looks for them only when a frame would go to one of them.
+    reached: LinkMask,
     /// When routes were last checked for their age (they are, at most every 100 ms).
     expired_at_us: u64,
     counters: RouterCounters,
@@ -236,6 +241,7 @@ impl<
                 seen: [Seen::default(); DEDUP],
                 seen_next: 0,
                 route_ttl_us: DEFAULT_ROUTE_TTL_US,
+                reached: 0,
                 expired_at_us: 0,
                 counters: RouterCounters::default(),
             },
@@ -269,8 +275,25 @@ impl<
             signing,
             config,
             counters: LinkCounters::default(),
+            reached_through: None,
         };
         Some(index)
+    }
+
+    /// Says that everything sent on link `by` reaches link `link` too: `by` sends to a
+    /// broadcast address or a multicast group, and `link` is one host there, heard on its own.
+    /// A frame that would go to both goes only to `by` (a host never gets it twice), a frame for
+    /// a system behind `link` alone goes to `link`, and nothing from `link` goes back to `by`
+    /// (the host is not sent its own frames). Undone when either link closes.
+    pub fn reached_through(&mut self, link: usize, by: usize) {
+        let state = &mut self.state;
+        if link == by || !state.links.get(by).is_some_and(|l| l.open) {
+            return;
+        }
+        if let Some(l) = state.links.get_mut(link).filter(|l| l.open) {
+            l.reached_through = u8::try_from(by).ok();
+            state.reached |= 1 << link;
+        }
     }
 
     /// Closes link `index`: its routes are forgotten and its parser's buffer dropped. Its
@@ -282,8 +305,16 @@ impl<
         self.sync_parser_counters(index);
         if let Some(link) = self.state.links.get_mut(index) {
             link.open = false;
+            link.reached_through = None;
         }
         let state = &mut self.state;
+        state.reached &= !(1 << index);
+        for (i, link) in state.links.iter_mut().enumerate() {
+            if link.reached_through == u8::try_from(index).ok() {
+                link.reached_through = None;
+                state.reached &= !(1 << i);
+            }
+        }
         for slot in state.routes.iter_mut().take(state.routes_end) {
             if slot.is_some_and(|r| r.link == index) {
                 *slot = None;
@@ -550,7 +581,10 @@ impl<
             None | Some((0, _)) => self.open_mask(),
             Some((sysid, compid)) => self.links_for(sysid, compid, now_us),
         };
-        let candidates = candidates & !((1 << from) | self.group_mask(from));
+        let mut candidates = candidates & !((1 << from) | self.group_mask(from));
+        if (candidates | (1 << from)) & self.reached != 0 {
+            candidates = self.without_reached(from, candidates);
+        }
         if candidates == 0 {
             return self.drop_frame(from, DropReason::NoRoute);
         }
@@ -613,6 +647,27 @@ impl<
             self.seen_next = (self.seen_next + 1) % DEDUP;
         }
         hit
+    }
+
+    /// `candidates` less the links reached through another candidate, and less the link
+    /// `from` is reached through.
+    fn without_reached(&self, from: usize, candidates: LinkMask) -> LinkMask {
+        let through = |i: usize| {
+            self.links
+                .get(i)
+                .and_then(|l| l.reached_through)
+                .map_or(0, |by| 1 << by)
+        };
+        let mut out = candidates & !through(from);
+        let mut rest = candidates & self.reached;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            if candidates & through(i) != 0 {
+                out &= !(1 << i);
+            }
+        }
+        out
     }
 
     fn open_mask(&self) -> LinkMask {
