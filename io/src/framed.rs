@@ -263,7 +263,14 @@ impl<D: Deframer> PeerTable<D> {
         }
         let mut last_error = None;
         let mut sent = 0;
-        for peer in self.peers.values() {
+        // A host heard on a broadcast address or multicast group is reached by what is sent
+        // there.
+        let reached = |sender: &Sender| {
+            sender
+                .reached_through()
+                .is_some_and(|g| self.peers.contains_key(&g))
+        };
+        for peer in self.peers.values().filter(|p| !reached(&p.sender)) {
             match peer.sender.send(bytes) {
                 Ok(()) => sent += 1,
                 Err(e) => last_error = Some(e),

@@ -122,8 +122,18 @@ pub fn offset(whole: &str, part: &str) -> usize {
 pub enum Form {
     /// `HOST:PORT`, bound; every sender is a peer ([`Endpoint::UdpIn`]).
     UdpIn,
-    /// `HOST:PORT`, sent to from an ephemeral port ([`Endpoint::UdpOut`]).
+    /// `HOST:PORT[?replies=any]`, sent to from an ephemeral port ([`Endpoint::UdpOut`], or
+    /// with `?replies=any`, [`Endpoint::UdpOutAny`]).
     UdpOut,
+    /// `ADDR:PORT`, a broadcast address sent to from an ephemeral port
+    /// ([`Endpoint::UdpBcast`]).
+    UdpBcast,
+    /// `GROUP:PORT[?iface=NAME]`, a multicast group ([`Endpoint::UdpMcast`]); with a default
+    /// group and port, the whole `GROUP:PORT` may be left out.
+    UdpMcast {
+        /// The group and port when none is given.
+        default: Option<(&'static str, u16)>,
+    },
     /// `HOST[:IN_PORT][:OUT_PORT]`: bind `IN_PORT`, send to `HOST:OUT_PORT`
     /// ([`Endpoint::Udp`]).
     UdpPair {
@@ -155,10 +165,10 @@ pub enum Form {
 impl Form {
     fn usage(self) -> &'static str {
         match self {
-            Form::UdpIn
-            | Form::UdpOut
-            | Form::TcpIn { host: None }
-            | Form::TcpOut { port: None } => "HOST:PORT",
+            Form::UdpIn | Form::TcpIn { host: None } | Form::TcpOut { port: None } => "HOST:PORT",
+            Form::UdpOut => "HOST:PORT[?replies=any]",
+            Form::UdpBcast => "ADDR:PORT",
+            Form::UdpMcast { .. } => "GROUP:PORT[?iface=NAME]",
             Form::UdpPair { .. } => "HOST[:IN_PORT][:OUT_PORT]",
             Form::TcpIn { host: Some(_) } => "[HOST]:PORT",
             Form::TcpOut { port: Some(_) } => "HOST[:PORT]",
@@ -172,7 +182,9 @@ impl Form {
         matches!(
             (self, endpoint),
             (Form::UdpIn, Endpoint::UdpIn(..))
-                | (Form::UdpOut, Endpoint::UdpOut(..))
+                | (Form::UdpOut, Endpoint::UdpOut(..) | Endpoint::UdpOutAny(..))
+                | (Form::UdpBcast, Endpoint::UdpBcast(..))
+                | (Form::UdpMcast { .. }, Endpoint::UdpMcast(..))
                 | (Form::UdpPair { .. }, Endpoint::Udp(..))
                 | (Form::TcpIn { .. }, Endpoint::TcpIn(..))
                 | (Form::TcpOut { .. }, Endpoint::TcpOut(..))
@@ -344,14 +356,51 @@ impl Grammar {
             loose: self.loose,
         };
         let endpoint = match found.form {
-            Form::UdpIn | Form::UdpOut => {
-                let (host, port) = p.host_port(rest, None)?;
-                let host = p.require_host(rest, host)?;
-                let port = port.ok_or_else(|| p.missing_port(rest, host.as_str()))?;
-                if found.form == Form::UdpIn {
-                    Endpoint::UdpIn(host, port)
-                } else {
-                    Endpoint::UdpOut(host, p.sent_to(rest, port)?)
+            Form::UdpIn | Form::UdpOut | Form::UdpBcast | Form::UdpMcast { .. } => {
+                let (rest, options) = p.options(rest)?;
+                let (host, port) = match found.form {
+                    Form::UdpMcast {
+                        default: Some((group, port)),
+                    } if rest.is_empty() => (group.to_owned(), port),
+                    _ => {
+                        let (host, port) = p.host_port(rest, None)?;
+                        let host = p.require_host(rest, host)?;
+                        let port = port.ok_or_else(|| p.missing_port(rest, host.as_str()))?;
+                        (host, port)
+                    }
+                };
+                match found.form {
+                    Form::UdpIn => {
+                        p.no_options(&options, "")?;
+                        Endpoint::UdpIn(host, port)
+                    }
+                    Form::UdpOut => {
+                        p.no_options(&options, "replies")?;
+                        let port = p.sent_to(rest, port)?;
+                        match options.first() {
+                            Some((_, "any")) => Endpoint::UdpOutAny(host, port),
+                            Some((_, other)) => {
+                                return Err(p.err(
+                                    other,
+                                    format!("bad replies={other:?}: expected replies=any"),
+                                ))
+                            }
+                            None => Endpoint::UdpOut(host, port),
+                        }
+                    }
+                    Form::UdpBcast => {
+                        p.no_options(&options, "")?;
+                        Endpoint::UdpBcast(host, p.sent_to(rest, port)?)
+                    }
+                    _ => {
+                        p.no_options(&options, "iface")?;
+                        let iface = options.first().map(|(_, name)| *name);
+                        if let Some(name) = iface.filter(|n| n.is_empty()) {
+                            return Err(p.err(name, "empty iface=: expected an interface name"));
+                        }
+                        let port = p.sent_to(rest, port)?;
+                        Endpoint::UdpMcast(host, port, iface.map(str::to_owned))
+                    }
                 }
             }
             Form::UdpPair { in_port, out_port } => {
@@ -439,6 +488,9 @@ impl Grammar {
         Ok(())
     }
 }
+
+/// A URI's `?KEY=VALUE&...` options, each a slice of the URI.
+type Options<'u> = Vec<(&'u str, &'u str)>;
 
 /// The URI being parsed, for error positions.
 struct Parts<'u> {
@@ -578,6 +630,41 @@ impl<'u> Parts<'u> {
                     format!("bad port {field:?}: expected 0..={}", u16::MAX),
                 )
             })
+    }
+
+    /// `REST[?KEY=VALUE&...]` split into `REST` and its options, each a `(key, value)` slice of
+    /// the URI.
+    fn options(&self, rest: &'u str) -> Result<(&'u str, Options<'u>), UriError> {
+        let Some((rest, query)) = rest.split_once('?') else {
+            return Ok((rest, Vec::new()));
+        };
+        let options = query
+            .split('&')
+            .map(|option| {
+                option.split_once('=').ok_or_else(|| {
+                    self.err(option, format!("bad option {option:?}: expected KEY=VALUE"))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((rest, options))
+    }
+
+    /// Fails on any option but one `allowed` (none when empty).
+    fn no_options(&self, options: &[(&str, &str)], allowed: &str) -> Result<(), UriError> {
+        let expected = if allowed.is_empty() {
+            format!("{}:// takes no options", self.scheme)
+        } else {
+            format!("{}:// takes only ?{allowed}=...", self.scheme)
+        };
+        for (i, (key, _)) in options.iter().enumerate() {
+            if *key != allowed {
+                return Err(self.err(key, format!("unknown option {key:?}: {expected}")));
+            }
+            if i > 0 {
+                return Err(self.err(key, format!("{key}= given twice")));
+            }
+        }
+        Ok(())
     }
 
     /// `PATH[:BAUD]` (or `PATH,BAUD` in loose grammars).

@@ -33,7 +33,21 @@ fn uris_in_every_spelling() {
         ("udpin:0.0.0.0:14550", "udpin://0.0.0.0:14550"),
         ("udp:0.0.0.0:14550", "udpin://0.0.0.0:14550"),
         ("udpout://10.0.0.2:14550", "udpout://10.0.0.2:14550"),
-        ("udpbcast:10.0.0.255:14550", "udpout://10.0.0.255:14550"),
+        ("udpbcast:10.0.0.255:14550", "udpbcast://10.0.0.255:14550"),
+        (
+            "udpout://10.0.0.2:14550?replies=any",
+            "udpout://10.0.0.2:14550?replies=any",
+        ),
+        (
+            "udpmcast://239.255.145.50:14550",
+            "udpmcast://239.255.145.50:14550",
+        ),
+        (
+            "udpmcast://[ff02::1:5]:14550?iface=eth0",
+            "udpmcast://[ff02::1:5]:14550?iface=eth0",
+        ),
+        ("mcast:", "udpmcast://239.255.145.50:14550"),
+        ("mcast:239.0.0.9:5000", "udpmcast://239.0.0.9:5000"),
         ("tcpin://[::1]:5760", "tcpin://[::1]:5760"),
         ("tcp:127.0.0.1:5760", "tcpout://127.0.0.1:5760"),
         ("tcpout://localhost:5760", "tcpout://localhost:5760"),
@@ -58,6 +72,14 @@ fn uris_in_every_spelling() {
         "tcp:host:99999",
         "ftp://x:1",
         "x",
+        "udpout://h:1?replies=some",
+        "udpout://h:1?iface=eth0",
+        "udpin://h:1?replies=any",
+        "udpmcast://239.0.0.1:1?iface=",
+        "udpmcast://239.0.0.1:1?iface=a&iface=b",
+        "udpmcast://239.0.0.1:1?iface",
+        "udpmcast:",
+        "udpbcast://10.0.0.255:0",
     ] {
         let e = mavlink::ENDPOINTS.endpoint(bad).unwrap_err().to_string();
         assert!(e.contains(bad) && e.contains("hint"), "{bad}: {e}");

@@ -13,7 +13,9 @@
 //! | endpoint, as [`Display`](fmt::Display) writes it | peers | |
 //! |-----|-------|-|
 //! | `udpin://HOST:PORT` | each address that sends to the bound socket | a peer quiet for the expiry (10 s by default) is reported down |
-//! | `udpout://HOST:PORT` | the one address | sent to from an ephemeral port; replies to that port are read |
+//! | `udpout://HOST:PORT` | the one address | sent to from an ephemeral port; replies to that port from that address are read (from any address with `?replies=any`) |
+//! | `udpbcast://ADDR:PORT` | the broadcast address, and each host that answers | sent to with `SO_BROADCAST` from an ephemeral port; a host is answered directly, and is [reached through](Sender::reached_through) the broadcast address |
+//! | `udpmcast://GROUP:PORT[?iface=NAME]` | the group, and each host heard in it | the group's port is shared (`SO_REUSEADDR`); sent to from an ephemeral port, whose datagrams coming back are dropped; a host is sent to through the group |
 //! | [`Endpoint::Udp`] (NDLCom's `udp://HOST:IN_PORT:OUT_PORT`) | `HOST:OUT_PORT` | sent to from local port `IN_PORT`; every datagram arriving there is read |
 //! | `tcpin://HOST:PORT` | each client | any number of clients |
 //! | `tcpout://HOST:PORT` | the server | reconnects with a backoff from 50 ms doubling to 1 s |
@@ -176,6 +178,17 @@ pub enum Endpoint {
     UdpIn(String, u16),
     /// `udpout://HOST:PORT`: send there, read the replies.
     UdpOut(String, u16),
+    /// `udpout://HOST:PORT?replies=any`: send there, read every datagram that reaches the
+    /// port sent from, whoever sends it (a vehicle that answers from another address).
+    UdpOutAny(String, u16),
+    /// `udpbcast://ADDR:PORT`: send to a broadcast address (`SO_BROADCAST`) from an ephemeral
+    /// port; every host that answers is a peer of its own, as on `udpin`, answered directly.
+    UdpBcast(String, u16),
+    /// `udpmcast://GROUP:PORT[?iface=NAME]`: join a multicast group (IPv4 or IPv6), on the
+    /// interface named or the one the system picks, and send to it; every host heard in the
+    /// group is a peer of its own, sent to through the group. Our own frames, looped back, are
+    /// dropped.
+    UdpMcast(String, u16, Option<String>),
     /// `(HOST, IN_PORT, OUT_PORT)`: bind `IN_PORT` on the unspecified address of `HOST`'s
     /// family, send to `HOST:OUT_PORT`, and read every datagram that arrives (NDLCom's
     /// `udp://HOST:IN_PORT:OUT_PORT`, written that way by [`fmt::Display`]).
@@ -196,7 +209,12 @@ impl Endpoint {
     pub fn is_datagrams(&self) -> bool {
         matches!(
             self,
-            Endpoint::UdpIn(..) | Endpoint::UdpOut(..) | Endpoint::Udp(..)
+            Endpoint::UdpIn(..)
+                | Endpoint::UdpOut(..)
+                | Endpoint::UdpOutAny(..)
+                | Endpoint::UdpBcast(..)
+                | Endpoint::UdpMcast(..)
+                | Endpoint::Udp(..)
         )
     }
 }
@@ -214,6 +232,15 @@ impl fmt::Display for Endpoint {
         match self {
             Endpoint::UdpIn(h, p) => write!(f, "udpin://{}:{p}", host(h)),
             Endpoint::UdpOut(h, p) => write!(f, "udpout://{}:{p}", host(h)),
+            Endpoint::UdpOutAny(h, p) => write!(f, "udpout://{}:{p}?replies=any", host(h)),
+            Endpoint::UdpBcast(h, p) => write!(f, "udpbcast://{}:{p}", host(h)),
+            Endpoint::UdpMcast(h, p, iface) => {
+                write!(f, "udpmcast://{}:{p}", host(h))?;
+                match iface {
+                    Some(name) => write!(f, "?iface={name}"),
+                    None => Ok(()),
+                }
+            }
             Endpoint::Udp(h, i, o) => write!(f, "udp://{}:{i}:{o}", host(h)),
             Endpoint::TcpIn(h, p) => write!(f, "tcpin://{}:{p}", host(h)),
             Endpoint::TcpOut(h, p) => write!(f, "tcpout://{}:{p}", host(h)),
@@ -289,7 +316,7 @@ pub type Open = Box<dyn FnOnce(usize, Sink, Status) -> io::Result<Box<dyn Send>>
 
 /// Writes to one peer. Cloning shares the socket.
 #[derive(Debug, Clone)]
-pub struct Sender(SenderKind);
+pub struct Sender(SenderKind, Option<PeerId>);
 
 /// Writes one frame or datagram somewhere outside this module.
 type WriteFn = dyn Fn(&[u8]) -> io::Result<()> + Send + Sync;
@@ -320,16 +347,32 @@ impl Sender {
     /// A sender from a UDP socket to `to`, whose writes in one batch may share datagrams of up
     /// to `pack_up_to` bytes (see [`Options::pack_up_to`]).
     fn udp(socket: Arc<UdpSocket>, to: SocketAddr, pack_up_to: usize) -> Sender {
-        Sender(SenderKind::Udp(batch::Route {
-            socket,
-            to,
-            pack_up_to,
-        }))
+        Sender(
+            SenderKind::Udp(batch::Route {
+                socket,
+                to,
+                pack_up_to,
+            }),
+            None,
+        )
     }
 
     /// A sender that hands every write to `write`: for endpoints opened outside this module.
     pub fn from_fn(write: impl Fn(&[u8]) -> io::Result<()> + Send + Sync + 'static) -> Sender {
-        Sender(SenderKind::Fn(Arc::new(write)))
+        Sender(SenderKind::Fn(Arc::new(write)), None)
+    }
+
+    /// The peer of the same endpoint whose every send reaches this one too: the broadcast
+    /// address or multicast group of a `udpbcast` or `udpmcast` endpoint, for each host heard
+    /// there. A router sends a frame bound for both only through that peer
+    /// ([`Router::reached_through`](ferrolink_runtime::mavlink::router::Router::reached_through)).
+    pub fn reached_through(&self) -> Option<PeerId> {
+        self.1
+    }
+
+    fn through(mut self, peer: Option<PeerId>) -> Sender {
+        self.1 = peer;
+        self
     }
 
     /// Sends `bytes` as one datagram, or writes them to the stream: on this thread (failing
@@ -411,6 +454,9 @@ pub struct Handle {
     stop: Arc<Stop>,
     local: Option<SocketAddr>,
     udp: Option<Arc<UdpSocket>>,
+    /// A multicast endpoint's sending socket and group: its reader, bound to the group, is
+    /// woken by a datagram to the group that never leaves this host.
+    wake_group: Option<(Arc<UdpSocket>, SocketAddr)>,
     /// Whether this is a `tcpin` endpoint, whose accept waits without a timeout.
     listens: bool,
     pack_up_to: usize,
@@ -451,7 +497,16 @@ impl Drop for Handle {
         if let Some(local) = self.local.filter(|_| self.listens) {
             let _ = TcpStream::connect_timeout(&wake_address(local), Duration::from_millis(100));
         }
-        if let Some(local) = self.udp.as_ref().and_then(|s| s.local_addr().ok()) {
+        if let Some((socket, group)) = &self.wake_group {
+            // Hop limit 0: delivered on this host only.
+            let limited = match group {
+                SocketAddr::V4(_) => socket.set_multicast_ttl_v4(0),
+                SocketAddr::V6(_) => socket2::SockRef::from(&**socket).set_multicast_hops_v6(0),
+            };
+            if limited.is_ok() {
+                let _ = socket.send_to(&[], group);
+            }
+        } else if let Some(local) = self.udp.as_ref().and_then(|s| s.local_addr().ok()) {
             let to = wake_address(local);
             let any: SocketAddr = match to {
                 SocketAddr::V4(_) => (std::net::Ipv4Addr::UNSPECIFIED, 0).into(),
@@ -494,6 +549,7 @@ pub fn open(
         io::Error::new(e.kind(), format!("{uri}: {e}{hint}"))
     };
     let mut udp = None;
+    let mut wake_group = None;
     let local = match endpoint {
         Endpoint::UdpIn(host, port) => {
             let socket =
@@ -501,16 +557,72 @@ pub fn open(
             batch::widen_receive_buffer(&socket);
             udp = Some(socket.clone());
             let local = socket.local_addr().ok();
+            let sources = udp::Sources::direct(&socket);
             spawn(&uri, {
                 let stop = stop.clone();
-                move || udp_in(index, &name, &socket, options, &stop, &events)
+                move || udp_in(index, &name, &socket, &sources, options, &stop, &events)
             })?;
             local
         }
-        Endpoint::UdpOut(host, port) | Endpoint::Udp(host, _, port) => {
+        Endpoint::UdpBcast(host, port) | Endpoint::UdpMcast(host, port, _) => {
+            let (socket, receive, to, sources) = match endpoint {
+                Endpoint::UdpMcast(_, _, iface) => {
+                    let m = udp::multicast(host, *port, iface.as_deref()).map_err(context)?;
+                    let send = Arc::new(m.send);
+                    let own = send.local_addr().map_err(context)?.port();
+                    wake_group = Some((send.clone(), m.group));
+                    let sources = udp::Sources {
+                        socket: send.clone(),
+                        to: Some(m.group),
+                        through: None,
+                        own: Some((own, m.local)),
+                    };
+                    (send, Arc::new(m.receive), m.group, sources)
+                }
+                _ => {
+                    let to = resolve(host, *port).map_err(context)?;
+                    let socket = UdpSocket::bind(SocketAddr::new(udp::unspecified(to), 0))
+                        .map_err(context)?;
+                    socket.set_broadcast(true).map_err(context)?;
+                    let socket = Arc::new(socket);
+                    let sources = udp::Sources::direct(&socket);
+                    (socket.clone(), socket, to, sources)
+                }
+            };
+            batch::widen_receive_buffer(&receive);
+            udp = Some(receive.clone());
+            let local = receive.local_addr().ok();
+            // The broadcast address or group is a peer from the start; each host heard there
+            // is one of its own, answered directly (broadcast) or through the group.
+            let group = next_peer();
+            let up = Event::Up {
+                endpoint: index,
+                peer: group,
+                name: name.clone(),
+                sender: Sender::udp(socket, to, options.pack_up_to),
+            };
+            if !events(up) {
+                return Err(io::Error::other(format!(
+                    "{uri}: nobody listens for events"
+                )));
+            }
+            let sources = udp::Sources {
+                through: Some(group),
+                ..sources
+            };
+            spawn(&uri, {
+                let stop = stop.clone();
+                move || udp_in(index, &name, &receive, &sources, options, &stop, &events)
+            })?;
+            local
+        }
+        Endpoint::UdpOut(host, port)
+        | Endpoint::UdpOutAny(host, port)
+        | Endpoint::Udp(host, _, port) => {
             let to = resolve(host, *port).map_err(context)?;
             let (bind_port, only_from) = match endpoint {
                 Endpoint::Udp(_, in_port, _) => (*in_port, None),
+                Endpoint::UdpOutAny(..) => (0, None),
                 _ => (0, Some(to)),
             };
             let any: SocketAddr = if to.is_ipv4() {
@@ -590,6 +702,7 @@ pub fn open(
         stop,
         local,
         udp,
+        wake_group,
         listens: matches!(endpoint, Endpoint::TcpIn(..)),
         pack_up_to: options.pack_up_to,
     })

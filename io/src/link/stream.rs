@@ -141,7 +141,7 @@ pub(super) fn peer_up(
         endpoint: index,
         peer: peer.id,
         name: name.to_owned(),
-        sender: Sender(SenderKind::Stream(writer, queue)),
+        sender: Sender(SenderKind::Stream(writer, queue), None),
     };
     Ok(events(up).then_some(peer))
 }

@@ -61,7 +61,9 @@ pub const DEFAULT_BAUD: u32 = 57_600;
 /// | URI | endpoint |
 /// |-----|----------|
 /// | `udpin://HOST:PORT` | listen; every sender is a peer |
-/// | `udpout://HOST:PORT` | send there, read the replies |
+/// | `udpout://HOST:PORT[?replies=any]` | send there, read the replies (from anyone, with `?replies=any`) |
+/// | `udpbcast://ADDR:PORT` | send to a broadcast address; every host that answers is a peer |
+/// | `udpmcast://GROUP:PORT[?iface=NAME]` | join a multicast group and send to it; every host heard there is a peer |
 /// | `tcpin://HOST:PORT` | TCP server; every client is a peer |
 /// | `tcpout://HOST:PORT` | TCP client that reconnects |
 /// | `serial://PATH[:BAUD]` | serial device, 8N1, 57600 baud unless named |
@@ -69,18 +71,26 @@ pub const DEFAULT_BAUD: u32 = 57_600;
 ///
 /// The spellings of pymavlink and rust-mavlink are accepted as well, so a user can paste what
 /// they know: `udpin:0.0.0.0:14550`, `udpout:HOST:PORT`, `udp:HOST:PORT` (= udpin),
-/// `udpbcast:HOST:PORT` (= udpout), `tcp:HOST:PORT` (= tcpout), `tcpin:HOST:PORT`,
+/// `udpbcast:ADDR:PORT`, `mcast:` (= `udpmcast://239.255.145.50:14550`, ArduPilot's group) or
+/// `mcast:GROUP:PORT`, `tcp:HOST:PORT` (= tcpout), `tcpin:HOST:PORT`,
 /// `serial:/dev/ttyUSB0:57600`, a bare device path (`/dev/ttyACM0[,BAUD]` or `COM3`).
 pub const ENDPOINTS: Grammar = Grammar {
     schemes: &[
         Scheme::new("udpin", Form::UdpIn),
         Scheme::new("udpout", Form::UdpOut),
+        Scheme::new("udpbcast", Form::UdpBcast),
+        Scheme::new("udpmcast", Form::UdpMcast { default: None }),
         Scheme::new("tcpin", Form::TcpIn { host: None }),
         Scheme::new("tcpout", Form::TcpOut { port: None }),
         Scheme::new("serial", Form::Serial { baud: DEFAULT_BAUD }),
         Scheme::new("pty", Form::Pty),
         Scheme::alias("udp", Form::UdpIn),
-        Scheme::alias("udpbcast", Form::UdpOut),
+        Scheme::alias(
+            "mcast",
+            Form::UdpMcast {
+                default: Some(("239.255.145.50", 14550)),
+            },
+        ),
         Scheme::alias("tcp", Form::TcpOut { port: None }),
     ],
     routes: false,

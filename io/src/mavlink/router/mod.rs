@@ -139,7 +139,7 @@ impl State {
                 name,
                 sender,
             } => {
-                if self.on_probation(endpoint) {
+                if self.on_probation(endpoint, &sender) {
                     self.waiting.insert(peer, (endpoint, name, sender, false));
                 } else {
                     self.admit(endpoint, peer, name, sender, false);
@@ -147,7 +147,7 @@ impl State {
             }
             Event::Rx { peer, bytes, at } => {
                 if let Some((endpoint, name, sender, refused)) = self.waiting.remove(&peer) {
-                    if self.on_probation(endpoint) && !self.proves(bytes) {
+                    if self.on_probation(endpoint, &sender) && !self.proves(bytes) {
                         self.junk_datagrams += 1;
                         self.waiting.insert(peer, (endpoint, name, sender, refused));
                         return;
@@ -247,8 +247,17 @@ impl State {
         }
     }
 
-    fn on_probation(&self, endpoint: usize) -> bool {
-        matches!(self.endpoints.get(endpoint), Some(Some(e)) if e.peers == Peers::OnProbation)
+    /// Whether a peer of `endpoint` must prove itself with a checked frame before it gets a
+    /// link slot.
+    fn on_probation(&self, endpoint: usize, sender: &Sender) -> bool {
+        match self.endpoints.get(endpoint) {
+            Some(Some(e)) => match e.peers {
+                Peers::OnProbation => true,
+                Peers::Group => sender.reached_through().is_some(),
+                Peers::Kept | Peers::Clients => false,
+            },
+            _ => false,
+        }
     }
 
     /// Closes the TCP client that has gone longest without a checked frame, if that is longer
@@ -359,6 +368,9 @@ impl State {
             return false;
         };
         self.by_slot[slot] = Some(peer);
+        if let Some(group) = sender.reached_through().and_then(|g| self.links.get(&g)) {
+            self.router.reached_through(slot, group.slot);
+        }
         say(format!("link up: {name}"));
         self.links.insert(
             peer,
@@ -419,6 +431,9 @@ enum Peers {
     Clients,
     /// Only once they send a datagram with a checked frame (`udpin`); they expire when quiet.
     OnProbation,
+    /// The broadcast address or group at once, and kept; each host heard there as on
+    /// `udpin`, reached through the group (`udpbcast`, `udpmcast`).
+    Group,
 }
 
 fn lock(state: &Mutex<State>) -> MutexGuard<'_, State> {
@@ -462,6 +477,7 @@ fn open_endpoint(
     };
     let peers = match endpoint.endpoint {
         link::Endpoint::UdpIn(..) => Peers::OnProbation,
+        link::Endpoint::UdpBcast(..) | link::Endpoint::UdpMcast(..) => Peers::Group,
         link::Endpoint::TcpIn(..) => Peers::Clients,
         _ => Peers::Kept,
     };
