@@ -36,6 +36,10 @@ pub enum Command {
         /// to, or into DIR, a new numbered file per run (NNNNN-YYYY-MM-DD_HH-MM-SS.tlog, UTC).
         #[arg(long, value_name = "FILE.tlog|DIR")]
         tlog: Option<PathBuf>,
+        /// When the tlog is written: always, or while-armed (a new file each time the vehicle
+        /// arms, closed when it disarms: one per flight) [default: always].
+        #[arg(long, value_name = "always|while-armed")]
+        log_mode: Option<router::LogMode>,
         /// Write statistics as one JSON object per line, every second and at exit.
         #[arg(long, value_name = "FILE")]
         stats_json: Option<PathBuf>,
@@ -283,6 +287,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
         Command::Router {
             dialect,
             tlog,
+            log_mode,
             stats_json,
             stats,
             run_for,
@@ -329,6 +334,8 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 table,
                 tlog: tlog.or(file.tlog),
                 retention: file.retention,
+                log_mode: log_mode.or(file.log_mode).unwrap_or_default(),
+                log_system_id: file.log_system_id,
                 stats_json: stats_json.or(file.stats_json),
                 stats_every: stats.or(file.stats_every),
                 run_for,

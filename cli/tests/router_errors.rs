@@ -149,7 +149,7 @@ fn a_udpout_to_port_zero() {
     port 0: nothing can be sent to port 0; give the port the peer listens on
       udpout://127.0.0.1:0
                          ^
-      hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME, zenoh://?mode=peer|client&listen=tcp/HOST:PORT&connect=tcp/HOST:PORT&encoding=raw|json&prefix=NAME (listen and connect repeat; at least one); pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
+      hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT[?replies=any], udpbcast://ADDR:PORT, udpmcast://GROUP:PORT[?iface=NAME], tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME, zenoh://?mode=peer|client&listen=tcp/HOST:PORT&connect=tcp/HOST:PORT&encoding=raw|json&prefix=NAME (listen and connect repeat; at least one); pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
     ");
 }
 

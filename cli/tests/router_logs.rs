@@ -165,3 +165,114 @@ fn a_log_cut_short_by_kill_9_reads_back_to_its_last_whole_record() {
     );
     assert_eq!(skipped, 0);
 }
+
+/// A HEARTBEAT from `sysid` with `autopilot` (8: not a vehicle), armed or not.
+fn heartbeat_armed(sysid: u8, seq: u8, autopilot: u8, armed: bool) -> Vec<u8> {
+    let payload = [
+        0,
+        0,
+        0,
+        0,
+        2,
+        autopilot,
+        if armed { 128 | 1 } else { 1 },
+        4,
+        3,
+    ];
+    let mut out = [0u8; v2::MAX_FRAME_LEN];
+    let n = v2::encode_raw(Header::new(seq, sysid, 1), 0, 50, &payload, &mut out).expect("fits");
+    out[..n].to_vec()
+}
+
+/// Each record of a log as (system, armed).
+fn flight(path: &Path) -> Vec<(u8, bool)> {
+    let data = std::fs::read(path).expect("the log");
+    let mut records = Vec::new();
+    let stats = read_tlog(&data, &[], |r| {
+        let armed = r.frame.payload().get(6).is_some_and(|m| m & 128 != 0);
+        records.push((r.frame.header().sysid, armed));
+    });
+    assert_eq!((stats.skipped_bytes, stats.truncated_bytes), (0, 0));
+    records
+}
+
+#[test]
+fn while_armed_writes_a_log_per_flight_across_restarts() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let logs_dir = dir.path().join("logs");
+    std::fs::create_dir(&logs_dir).expect("mkdir");
+    let args = [
+        "--tlog",
+        logs_dir.to_str().unwrap(),
+        "--log-mode",
+        "while-armed",
+    ];
+    let sock = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    let mut seq = 0u8;
+    let mut say = |port: u16, sysid: u8, autopilot: u8, armed: bool, n: usize| {
+        for _ in 0..n {
+            let frame = heartbeat_armed(sysid, seq, autopilot, armed);
+            sock.send_to(&frame, ("127.0.0.1", port)).expect("send");
+            seq = seq.wrapping_add(1);
+            thread::sleep(Duration::from_millis(2));
+        }
+    };
+    let (child, port) = router(&args);
+    // A ground station's heartbeat, armed flag or not, is not a vehicle's.
+    say(port, 255, 8, true, 2);
+    say(port, 1, 3, false, 3);
+    assert!(logs(&logs_dir).is_empty(), "nothing logged before arming");
+    // Flight 1, with a second vehicle armed meanwhile: logged, but it decides nothing.
+    say(port, 1, 3, true, 3);
+    say(port, 2, 3, true, 1);
+    say(port, 1, 3, true, 1);
+    say(port, 1, 3, false, 2);
+    // Flight 2.
+    say(port, 1, 3, true, 4);
+    say(port, 1, 3, false, 1);
+    thread::sleep(Duration::from_millis(200));
+    let said = stop(child);
+    assert!(said.contains("armed: a new flight's log"), "{said}");
+    // Flight 3 runs when the router stops: its log is closed whole.
+    let (child, port) = router(&args);
+    say(port, 1, 3, true, 3);
+    thread::sleep(Duration::from_millis(200));
+    stop(child);
+
+    let files = logs(&logs_dir);
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 3, "{names:?}");
+    for (i, name) in names.iter().enumerate() {
+        assert!(name.starts_with(&format!("{:05}-", i + 1)), "{names:?}");
+    }
+    let mut first = vec![(1, true); 3];
+    first.extend([(2, true), (1, true), (1, false)]);
+    assert_eq!(flight(&files[0]), first);
+    let second = [vec![(1, true); 4], vec![(1, false)]].concat();
+    assert_eq!(flight(&files[1]), second);
+    assert_eq!(flight(&files[2]), vec![(1, true); 3]);
+}
+
+#[test]
+fn while_armed_needs_a_place_for_its_logs_at_start() {
+    let out = Command::new(common::ferrolink())
+        .args([
+            "mavlink",
+            "router",
+            "udpin://127.0.0.1:0",
+            "--log-mode",
+            "while-armed",
+        ])
+        .args(["--tlog", "/nonexistent/logs"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("/nonexistent/logs: no such directory"),
+        "{err}"
+    );
+}

@@ -5,6 +5,7 @@ use std::time::Duration;
 
 use ferrolink_io::link::Endpoint;
 use ferrolink_io::mavlink::config::{from_main_conf, from_toml, from_toml_with};
+use ferrolink_io::mavlink::router::LogMode;
 use ferrolink_io::uri::{Extension, UriError};
 
 #[test]
@@ -97,10 +98,10 @@ fn toml_errors_say_where() {
     let err = |text: &str| from_toml(text, Path::new(".")).unwrap_err().to_string();
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nbogus = 1\n"), @"3:1: unknown field `bogus`, expected one of `uri`, `group`, `dedup_ms`, `max_delay_ms`, `signing_key`, `drop_unknown_ids`, `allow_msg_in`, `block_msg_in`, `allow_msg_out`, `block_msg_out`, `allow_src_sys_in`, `block_src_sys_in`, `allow_src_sys_out`, `block_src_sys_out`, `allow_src_comp_in`, `block_src_comp_in`, `allow_src_comp_out`, `block_src_comp_out`");
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"ftp://x:1\"\n"), @r#"
-    endpoint #1 (ftp://x:1): unknown scheme "ftp": expected udpin, udpout, tcpin, tcpout, serial or pty
+    endpoint #1 (ftp://x:1): unknown scheme "ftp": expected udpin, udpout, udpbcast, udpmcast, tcpin, tcpout, serial or pty
       ftp://x:1
       ^
-      hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT, tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME; pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
+      hint: accepted forms: udpin://HOST:PORT, udpout://HOST:PORT[?replies=any], udpbcast://ADDR:PORT, udpmcast://GROUP:PORT[?iface=NAME], tcpin://HOST:PORT, tcpout://HOST:PORT, serial://PATH[:BAUD], pty://NAME; pymavlink spellings (udpin:HOST:PORT, tcp:HOST:PORT, serial:PATH:BAUD) work too
     "#);
     insta::assert_snapshot!(err("[[endpoint]]\nuri = \"udpin://x:1\"\nsigning_key = \"abc\"\n"), @"endpoint #1 (udpin://x:1): signing_key must be 64 hex digits");
     insta::assert_snapshot!(err("[endpoint]\nuri = \"udpin://x:1\"\n"), @r"
@@ -231,11 +232,13 @@ Filter = 0,30
     );
     assert_eq!(c.dialects, [Path::new("ardupilotmega")]);
     assert_eq!(c.endpoints[1].link.outbound.allow_msg.as_slice(), [0, 30]);
+    assert_eq!(
+        (c.log_mode, c.log_system_id),
+        (Some(LogMode::WhileArmed), Some(1))
+    );
     insta::assert_debug_snapshot!(c.warnings, @r#"
     [
-        "[General] LogMode = while-armed: not supported; the log is written all the time",
         "[General] DebugLogLevel = debug: not supported; the router has no log levels; it prints its errors and warnings",
-        "[General] LogSystemId = 1: not supported; the log holds every system's frames",
         "[General] SnifferSysid = 254: not supported; there is no sniffer; every system's frames are routed by their targets",
     ]
     "#);

@@ -5,6 +5,8 @@
 //!
 //! ```toml
 //! tlog = "flight.tlog"            # optional, as --tlog: a .tlog appended to, or a directory
+//! log_mode = "always"             # as --log-mode: "always", or "while-armed" (a log per flight)
+//! log_system_id = 1               # the vehicle whose arming counts (default: the first heard)
 //! max_log_files = 100             # a tlog directory keeps this many logs, the oldest deleted
 //! min_free_space = 100_000_000    # and this many bytes free
 //! stats_json = "stats.jsonl"      # optional, as --stats-json
@@ -41,8 +43,10 @@
 //!   starts, never the new one);
 //!   `DeduplicationPeriod` (ms, for every endpoint); `ReportStats` (`true`: link statistics
 //!   on stderr every second, as `--stats 1`); `MavlinkDialect` (`auto`: every standard
-//!   dialect, our default; `common` or `ardupilotmega`: that built-in dialect); `LogMode =
-//!   always` (what the router does).
+//!   dialect, our default; `common` or `ardupilotmega`: that built-in dialect); `LogMode`
+//!   (`always`, or `while-armed`: a new log each time the vehicle arms, closed when it
+//!   disarms); `LogSystemId` (the vehicle whose arming counts; by default the first autopilot
+//!   heard).
 //! - `[UartEndpoint NAME]` `Device`, `Baud` (the first of a list), `FlowControl = false`.
 //! - `[UdpEndpoint NAME]` `Mode` (`Normal`/`Client` sends to `Address:Port`, `Server` or
 //!   `Eavesdropping` listens there), `Address`, `Port`, and `Filter` (the old name of
@@ -53,8 +57,7 @@
 //!   counterparts, as comma-separated lists.
 //!
 //! Reported, with what the router does instead: `DebugLogLevel` (it has no levels: it prints
-//! its errors and warnings), `LogMode = while-armed` (the log is written all the time),
-//! `LogSystemId` (the log holds every system's frames), `SnifferSysid` (no sniffer: every system's frames are routed by their
+//! its errors and warnings), `SnifferSysid` (no sniffer: every system's frames are routed by their
 //! targets), `FlowControl = true` (the port is opened without flow control) and `RetryTimeout`
 //! (a TCP client reconnects with a backoff from 50 ms doubling to 1 s).
 
@@ -68,6 +71,7 @@ use ferrolink_runtime::mavlink::signing::SecretKey;
 use ferrolink_runtime::mavlink::v2;
 use serde::Deserialize;
 
+use super::router::LogMode;
 use super::tlog::Retention;
 use crate::link::{Endpoint, OutputQueue, Overflow};
 use crate::uri::{is_host, Extension, Target};
@@ -110,6 +114,10 @@ pub struct FileConfig<X = ()> {
     pub stats_every: Option<Duration>,
     /// What a tlog directory keeps.
     pub retention: Retention,
+    /// When the tlog is written (`log_mode`, `LogMode`), when the file says.
+    pub log_mode: Option<LogMode>,
+    /// The vehicle whose arming starts a flight's log (`log_system_id`, `LogSystemId`).
+    pub log_system_id: Option<u8>,
     /// How long a quiet UDP peer keeps its link.
     pub peer_expiry: Option<Duration>,
     /// The output queue of stream peers, when the file sets it.
@@ -130,6 +138,8 @@ impl<X> Default for FileConfig<X> {
             stats_json: None,
             stats_every: None,
             retention: Retention::default(),
+            log_mode: None,
+            log_system_id: None,
             peer_expiry: None,
             queue: None,
             one_frame_per_datagram: None,
@@ -150,6 +160,8 @@ impl FileConfig {
             stats_json: self.stats_json,
             stats_every: self.stats_every,
             retention: self.retention,
+            log_mode: self.log_mode,
+            log_system_id: self.log_system_id,
             peer_expiry: self.peer_expiry,
             queue: self.queue,
             one_frame_per_datagram: self.one_frame_per_datagram,
@@ -205,6 +217,8 @@ struct TomlFile {
     tlog: Option<PathBuf>,
     max_log_files: Option<usize>,
     min_free_space: Option<u64>,
+    log_mode: Option<String>,
+    log_system_id: Option<u8>,
     stats_json: Option<PathBuf>,
     peer_expiry: Option<f64>,
     queue_bytes: Option<usize>,
@@ -435,6 +449,12 @@ pub fn from_toml_with<X>(
             max_files: file.max_log_files,
             min_free_bytes: file.min_free_space,
         },
+        log_mode: file
+            .log_mode
+            .as_deref()
+            .map(|m| m.parse().map_err(|e| error(format!("log_mode = {e}"))))
+            .transpose()?,
+        log_system_id: file.log_system_id,
         peer_expiry,
         queue: queue(file.queue_bytes, file.queue_drop)?,
         one_frame_per_datagram: file.one_frame_per_datagram,
@@ -554,22 +574,24 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                     )))
                     }
                 }
-                match get("logmode").map(str::to_ascii_lowercase).as_deref() {
-                    None | Some("always") => {}
-                    Some(mode) => notes.push(format!(
-                        "{at} LogMode = {mode}: not supported; the log is written all the time"
-                    )),
+                if let Some(mode) = get("logmode") {
+                    config.log_mode = Some(
+                        mode.parse()
+                            .map_err(|e| error(format!("{at} LogMode = {e}")))?,
+                    );
+                }
+                if let Some(id) = get("logsystemid") {
+                    config.log_system_id = Some(id.trim().parse().map_err(|_| {
+                        error(format!(
+                            "{at} LogSystemId = {id:?}: expected a system id, 1 to 255"
+                        ))
+                    })?);
                 }
                 let instead = [
                     (
                         "debugloglevel",
                         "DebugLogLevel",
                         "the router has no log levels; it prints its errors and warnings",
-                    ),
-                    (
-                        "logsystemid",
-                        "LogSystemId",
-                        "the log holds every system's frames",
                     ),
                     (
                         "sniffersysid",

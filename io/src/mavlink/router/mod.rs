@@ -32,8 +32,13 @@ use super::{tlog, unix_us};
 use crate::link::{self, Event, OutputQueue, Overflow, PeerId, Sender};
 use crate::printer::{self, Printer};
 
+mod endpoints;
+mod flightlog;
 mod output;
 mod stats;
+use endpoints::{open_endpoint, reload};
+use flightlog::FlightLog;
+pub use flightlog::LogMode;
 use output::{create, give_up, say};
 use stats::{sorted_links, stats_line, table};
 
@@ -49,6 +54,11 @@ pub struct Config {
     pub tlog: Option<PathBuf>,
     /// What a log directory keeps.
     pub retention: tlog::Retention,
+    /// When the log is written: always, or one file per flight.
+    pub log_mode: LogMode,
+    /// The vehicle whose arming opens and closes a flight's log (by default the first
+    /// autopilot heard).
+    pub log_system_id: Option<u8>,
     /// Append a JSON object of statistics here every second and at exit.
     pub stats_json: Option<PathBuf>,
     /// Print a statistics table this often.
@@ -121,7 +131,7 @@ struct State {
     junk_datagrams: u64,
     by_slot: Vec<Option<PeerId>>,
     /// The `--tlog`, written by a thread of its own.
-    tlog: Option<tlog::Spool>,
+    tlog: Option<FlightLog>,
     refused: u64,
     /// The totals of links that closed, so that no count is lost with its link.
     closed: Closed,
@@ -189,7 +199,7 @@ impl State {
         let on_frame = |routed: Routed<'_>| {
             checked |= routed.frame.is_checked();
             if let Some(log) = tlog.as_mut() {
-                log.write(rx_us, routed.bytes);
+                log.write(rx_us, &routed.frame, routed.bytes);
             }
             let mut to = routed.to;
             while to != 0 {
@@ -458,86 +468,6 @@ impl std::fmt::Debug for Reload {
     }
 }
 
-/// An endpoint the router opened from a [`link`] URI, with its number.
-struct Opened {
-    config: EndpointConfig,
-    index: usize,
-    _handle: link::Handle,
-}
-
-/// Opens `endpoint` as a new endpoint of the router.
-fn open_endpoint(
-    state: &Arc<Mutex<State>>,
-    endpoint: &EndpointConfig,
-    options: link::Options,
-) -> io::Result<Opened> {
-    let link = LinkConfig {
-        datagrams: endpoint.endpoint.is_datagrams(),
-        ..endpoint.link.clone()
-    };
-    let peers = match endpoint.endpoint {
-        link::Endpoint::UdpIn(..) => Peers::OnProbation,
-        link::Endpoint::UdpBcast(..) | link::Endpoint::UdpMcast(..) => Peers::Group,
-        link::Endpoint::TcpIn(..) => Peers::Clients,
-        _ => Peers::Kept,
-    };
-    let index = lock(state).add_endpoint(link, peers);
-    let shared = state.clone();
-    let sink: link::Sink = Arc::new(move |event| {
-        lock(&shared).handle(event);
-        true
-    });
-    match link::open(index, &endpoint.endpoint, options, sink) {
-        Ok(handle) => Ok(Opened {
-            config: endpoint.clone(),
-            index,
-            _handle: handle,
-        }),
-        Err(e) => {
-            lock(state).remove_endpoint(index);
-            Err(e)
-        }
-    }
-}
-
-/// Applies a reloaded list of endpoints: those configured exactly as before keep running with
-/// their peers; the others close, and new ones open (one that cannot open is reported and
-/// left out).
-fn reload(
-    state: &Arc<Mutex<State>>,
-    opened: &mut Vec<Opened>,
-    endpoints: &[EndpointConfig],
-    options: link::Options,
-) {
-    let mut keep = vec![false; opened.len()];
-    let mut new = Vec::new();
-    for e in endpoints {
-        match (0..opened.len()).find(|&i| !keep[i] && opened[i].config == *e) {
-            Some(i) => keep[i] = true,
-            None => new.push(e),
-        }
-    }
-    let mut kept = Vec::new();
-    for (o, keep) in opened.drain(..).zip(keep) {
-        if keep {
-            kept.push(o);
-        } else {
-            say(format!("reload: closing {}", o.config.endpoint));
-            lock(state).remove_endpoint(o.index);
-        }
-    }
-    *opened = kept;
-    for e in new {
-        match open_endpoint(state, e, options) {
-            Ok(o) => {
-                say(format!("reload: opened {}", e.endpoint));
-                opened.push(o);
-            }
-            Err(err) => say(format!("reload: cannot open {}: {err}", e.endpoint)),
-        }
-    }
-}
-
 /// Runs the router on the configured endpoints and the `attached` ones (numbered after them)
 /// until `run_for` elapses or `stop` is set. Prints `ready` on stdout once every endpoint is
 /// bound and listening.
@@ -597,21 +527,16 @@ pub fn run_reloading(
     };
     // The tlog and the statistics file are written by threads of their own: a FIFO nobody
     // reads, or a disk that stalls, loses their records (counted), never routing.
-    let (tlog, tlog_path) = match &config.tlog {
-        Some(path) => {
-            let opened = tlog::files::open(path, config.retention)
-                .map_err(|e| io::Error::new(e.kind(), format!("tlog {e}")))?;
-            for old in &opened.deleted {
-                say(format!(
-                    "tlog: deleted {} to keep the log directory within its limits",
-                    old.display()
-                ));
-            }
-            say(format!("tlog: writing {}", opened.path.display()));
-            (Some(tlog::Spool::new(opened.file)), Some(opened.path))
-        }
-        None => (None, None),
+    let tlog = match &config.tlog {
+        Some(path) => Some(FlightLog::open(
+            path,
+            config.retention,
+            config.log_mode,
+            config.log_system_id,
+        )?),
+        None => None,
     };
+    let tlog_path = tlog.as_ref().map(|log| log.shown().to_path_buf());
     let mut stats_json = match &config.stats_json {
         Some(path) => Some(Printer::new(
             create("statistics file", path)?,

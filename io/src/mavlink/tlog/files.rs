@@ -36,8 +36,7 @@ pub struct Opened {
 /// with a hint, as is a file in a directory that does not exist.
 pub fn open(path: &Path, retention: Retention) -> io::Result<Opened> {
     let named = |e: io::Error, p: &Path| io::Error::new(e.kind(), format!("{}: {e}", p.display()));
-    let is_file = path.extension().is_some_and(|e| e == "tlog") || path.exists() && !path.is_dir();
-    if is_file {
+    if is_file(path) {
         let file = OpenOptions::new()
             .append(true)
             .create(true)
@@ -53,14 +52,7 @@ pub fn open(path: &Path, retention: Retention) -> io::Result<Opened> {
         });
     }
     if !path.is_dir() {
-        return Err(io::Error::new(
-            io::ErrorKind::NotFound,
-            format!(
-                "{}: no such directory\n  hint: create it for a log per run, or give a file \
-                 name ending in .tlog",
-                path.display()
-            ),
-        ));
+        return Err(not_a_directory(path));
     }
     let mut logs = numbered(path)?;
     let time = humantime::format_rfc3339_seconds(SystemTime::now()).to_string();
@@ -100,6 +92,41 @@ pub fn open(path: &Path, retention: Retention) -> io::Result<Opened> {
         file,
         deleted,
     })
+}
+
+/// Whether [`open`] could open a log at `path` (a `.tlog` file whose directory exists, or a
+/// directory), without opening one: the same errors, at once.
+pub fn check(path: &Path) -> io::Result<()> {
+    if is_file(path) {
+        let hint = missing_dir_hint(path);
+        if hint.is_empty() {
+            return Ok(());
+        }
+        return Err(io::Error::new(
+            io::ErrorKind::NotFound,
+            format!("{}: no such directory{hint}", path.display()),
+        ));
+    }
+    if path.is_dir() {
+        return Ok(());
+    }
+    Err(not_a_directory(path))
+}
+
+/// A path ending in `.tlog`, or anything there but a directory (a file, a FIFO).
+fn is_file(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e == "tlog") || path.exists() && !path.is_dir()
+}
+
+fn not_a_directory(path: &Path) -> io::Error {
+    io::Error::new(
+        io::ErrorKind::NotFound,
+        format!(
+            "{}: no such directory\n  hint: create it for a log per run, or give a file \
+             name ending in .tlog",
+            path.display()
+        ),
+    )
 }
 
 /// For a file that could not be created: a hint line when its directory does not exist.
