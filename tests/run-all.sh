@@ -41,6 +41,15 @@ if .venv/bin/python -c 'import pymavlink' 2>/dev/null; then
   if .venv/bin/python -I -c 'import zenoh; zenoh.Config' 2>/dev/null; then
     export FERROLINK_REQUIRE_ZENOH=1
   fi
+  # HTTP and WebSocket clients we did not write, for the router's web API.
+  if ! .venv/bin/python -c 'import requests, aiohttp' 2>/dev/null; then
+    echo "== installing requests and aiohttp into .venv"
+    .venv/bin/pip install --quiet --disable-pip-version-check requests aiohttp ||
+      echo "warning: requests or aiohttp could not be installed; the web API's checks will be skipped"
+  fi
+  if .venv/bin/python -c 'import requests, aiohttp' 2>/dev/null; then
+    export FERROLINK_REQUIRE_HTTP_CLIENTS=1
+  fi
 fi
 
 # Wireshark's tshark (with Lua 5.2), Lua 5.2 and 5.4 compilers, Chromium and QEMU, from Debian's

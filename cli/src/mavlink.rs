@@ -40,6 +40,10 @@ pub enum Command {
         /// arms, closed when it disarms: one per flight) [default: always].
         #[arg(long, value_name = "always|while-armed")]
         log_mode: Option<router::LogMode>,
+        /// Serve mavlink2rest's REST and WebSocket API and the live inspector page at
+        /// http://ADDR:PORT/ (bind 127.0.0.1 unless other hosts should reach it).
+        #[arg(long, value_name = "ADDR:PORT")]
+        http: Option<std::net::SocketAddr>,
         /// Write statistics as one JSON object per line, every second and at exit.
         #[arg(long, value_name = "FILE")]
         stats_json: Option<PathBuf>,
@@ -206,6 +210,33 @@ fn zenoh_endpoints(
     Ok(uris.into_iter().map(|(never, _)| match never {}).collect())
 }
 
+/// The router's web API (`--http`).
+#[cfg(feature = "http")]
+fn web_endpoint(
+    addr: std::net::SocketAddr,
+    dialects: &Dialects,
+    signing: Option<ferrolink_runtime::mavlink::signing::SecretKey>,
+) -> Result<router::Attached, Box<dyn std::error::Error>> {
+    Ok(ferrolink_web::endpoint(ferrolink_web::Config {
+        addr,
+        decoder: dialects.decoder(),
+        signing,
+    }))
+}
+
+#[cfg(not(feature = "http"))]
+fn web_endpoint(
+    addr: std::net::SocketAddr,
+    _: &Dialects,
+    _: Option<ferrolink_runtime::mavlink::signing::SecretKey>,
+) -> Result<router::Attached, Box<dyn std::error::Error>> {
+    Err(format!(
+        "--http {addr}: this ferrolink was built without the web API\n  hint: build it with \
+         the `http` feature (on by default)"
+    )
+    .into())
+}
+
 /// `ferrolink mavlink fleet`.
 #[cfg(feature = "zenoh")]
 fn fleet(uri: &str, timeout: Duration, json: bool) -> Result<ExitCode, Box<dyn std::error::Error>> {
@@ -288,6 +319,7 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
             dialect,
             tlog,
             log_mode,
+            http,
             stats_json,
             stats,
             run_for,
@@ -328,7 +360,14 @@ pub fn run(command: Command) -> Result<ExitCode, Box<dyn std::error::Error>> {
                 crate::dialect::ROUTER_DEFAULT,
             )?;
             let table = dialects.table.clone();
-            let attached = zenoh_endpoints(zenoh, dialects)?;
+            let http = http.or(file.http);
+            // What the API sends is signed with the first key the endpoints require.
+            let signing = all.iter().find_map(|e| e.link.require_signing.clone());
+            let web = http
+                .map(|addr| web_endpoint(addr, &dialects, signing))
+                .transpose()?;
+            let mut attached = zenoh_endpoints(zenoh, dialects)?;
+            attached.extend(web);
             let config = router::Config {
                 endpoints: all,
                 table,

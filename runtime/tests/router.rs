@@ -290,6 +290,31 @@ fn a_host_reached_through_a_group_link_is_sent_each_frame_once() {
     );
 }
 
+/// A sniffer gets every frame: broadcasts, frames for a system behind another link, and
+/// frames for a system nobody has seen; never its own.
+#[test]
+fn a_sniffer_link_gets_every_frame() {
+    let mut r = router(3);
+    let sniffer = r
+        .open_link(LinkConfig {
+            sniffer: true,
+            ..LinkConfig::default()
+        })
+        .unwrap();
+    one(&mut r, 1, &heartbeat(1, 1), 0);
+    let cmd = frame(COMMAND_LONG, 255, 190, 0, (1, 1));
+    assert_eq!(one(&mut r, 0, &cmd, 1), ((1 << 1) | (1 << sniffer), None));
+    let lost = frame(COMMAND_LONG, 255, 190, 1, (9, 1));
+    assert_eq!(one(&mut r, 0, &lost, 2), (1 << sniffer, None));
+    assert_eq!(
+        one(&mut r, sniffer, &heartbeat(200, 1), 3),
+        (0b111, None),
+        "what it sends is routed as any link's"
+    );
+    r.close_link(sniffer);
+    assert_eq!(one(&mut r, 0, &lost, 4), (0, Some(DropReason::NoRoute)));
+}
+
 #[test]
 fn filters_in_and_out() {
     let mut r = R::new(META);

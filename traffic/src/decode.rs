@@ -152,7 +152,7 @@ impl PayloadDecoder {
             .collect()
     }
 
-    fn enum_named(&self, name: &str) -> Option<&Enum> {
+    pub(crate) fn enum_named(&self, name: &str) -> Option<&Enum> {
         self.ir.enums.get(*self.enums.get(name)?)
     }
 

@@ -197,7 +197,11 @@ impl PayloadDecoder {
 }
 
 /// Writes one field's JSON value into its bytes.
-fn put_field(field: &Field, value: &serde_json::Value, out: &mut [u8]) -> Result<(), String> {
+pub(crate) fn put_field(
+    field: &Field,
+    value: &serde_json::Value,
+    out: &mut [u8],
+) -> Result<(), String> {
     use serde_json::Value as Json;
     let primitive = field.ty.primitive;
     if primitive == Primitive::Char {

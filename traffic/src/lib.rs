@@ -33,6 +33,7 @@ mod export;
 mod json;
 #[cfg(feature = "parquet")]
 pub mod parquet;
+mod rest;
 mod table;
 #[cfg(test)]
 mod tests;

@@ -7,6 +7,7 @@
 //! tlog = "flight.tlog"            # optional, as --tlog: a .tlog appended to, or a directory
 //! log_mode = "always"             # as --log-mode: "always", or "while-armed" (a log per flight)
 //! log_system_id = 1               # the vehicle whose arming counts (default: the first heard)
+//! http = "127.0.0.1:8088"         # as --http: the REST and WebSocket API and inspector page
 //! max_log_files = 100             # a tlog directory keeps this many logs, the oldest deleted
 //! min_free_space = 100_000_000    # and this many bytes free
 //! stats_json = "stats.jsonl"      # optional, as --stats-json
@@ -46,7 +47,7 @@
 //!   dialect, our default; `common` or `ardupilotmega`: that built-in dialect); `LogMode`
 //!   (`always`, or `while-armed`: a new log each time the vehicle arms, closed when it
 //!   disarms); `LogSystemId` (the vehicle whose arming counts; by default the first autopilot
-//!   heard).
+//!   heard); `Http` (ours, as `--http`: the web API's address).
 //! - `[UartEndpoint NAME]` `Device`, `Baud` (the first of a list), `FlowControl = false`.
 //! - `[UdpEndpoint NAME]` `Mode` (`Normal`/`Client` sends to `Address:Port`, `Server` or
 //!   `Eavesdropping` listens there), `Address`, `Port`, and `Filter` (the old name of
@@ -118,6 +119,8 @@ pub struct FileConfig<X = ()> {
     pub log_mode: Option<LogMode>,
     /// The vehicle whose arming starts a flight's log (`log_system_id`, `LogSystemId`).
     pub log_system_id: Option<u8>,
+    /// Where the web API listens (`http`, `Http`), as `--http`.
+    pub http: Option<std::net::SocketAddr>,
     /// How long a quiet UDP peer keeps its link.
     pub peer_expiry: Option<Duration>,
     /// The output queue of stream peers, when the file sets it.
@@ -140,6 +143,7 @@ impl<X> Default for FileConfig<X> {
             retention: Retention::default(),
             log_mode: None,
             log_system_id: None,
+            http: None,
             peer_expiry: None,
             queue: None,
             one_frame_per_datagram: None,
@@ -162,6 +166,7 @@ impl FileConfig {
             retention: self.retention,
             log_mode: self.log_mode,
             log_system_id: self.log_system_id,
+            http: self.http,
             peer_expiry: self.peer_expiry,
             queue: self.queue,
             one_frame_per_datagram: self.one_frame_per_datagram,
@@ -219,6 +224,7 @@ struct TomlFile {
     min_free_space: Option<u64>,
     log_mode: Option<String>,
     log_system_id: Option<u8>,
+    http: Option<std::net::SocketAddr>,
     stats_json: Option<PathBuf>,
     peer_expiry: Option<f64>,
     queue_bytes: Option<usize>,
@@ -426,6 +432,7 @@ pub fn from_toml_with<X>(
             drop_unknown_ids: e.drop_unknown_ids,
             // Set from the endpoint's kind and place when the router opens its links.
             datagrams: false,
+            sniffer: false,
         };
         match target {
             Target::Link(endpoint, _) => endpoints.push(EndpointConfig { endpoint, link }),
@@ -455,6 +462,7 @@ pub fn from_toml_with<X>(
             .map(|m| m.parse().map_err(|e| error(format!("log_mode = {e}"))))
             .transpose()?,
         log_system_id: file.log_system_id,
+        http: file.http,
         peer_expiry,
         queue: queue(file.queue_bytes, file.queue_drop)?,
         one_frame_per_datagram: file.one_frame_per_datagram,
@@ -579,6 +587,13 @@ pub fn from_main_conf(text: &str) -> Result<FileConfig, ConfigError> {
                         mode.parse()
                             .map_err(|e| error(format!("{at} LogMode = {e}")))?,
                     );
+                }
+                if let Some(addr) = get("http") {
+                    config.http = Some(addr.trim().parse().map_err(|_| {
+                        error(format!(
+                            "{at} Http = {addr:?}: expected ADDR:PORT, e.g. 127.0.0.1:8088"
+                        ))
+                    })?);
                 }
                 if let Some(id) = get("logsystemid") {
                     config.log_system_id = Some(id.trim().parse().map_err(|_| {

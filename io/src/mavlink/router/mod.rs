@@ -84,7 +84,8 @@ pub struct Attached {
     /// The configuration of its links.
     pub link: LinkConfig,
     /// Starts it; its status is the router's links and the systems behind them,
-    /// `{"links": [NAME, ...], "systems": [{"sysid": .., "compid": .., "link": NAME}, ...]}`.
+    /// `{"links": [NAME, ...], "systems": [{"sysid": .., "compid": .., "link": NAME}, ...],
+    /// "stats": {..}}` (`stats` as a `--stats-json` line).
     pub open: link::Open,
 }
 
@@ -419,6 +420,7 @@ impl State {
             "links": links,
             "systems": systems.into_iter().map(|(sysid, compid, link)|
                 json!({"sysid": sysid, "compid": compid, "link": link})).collect::<Vec<_>>(),
+            "stats": stats::stats_json(self),
         })
     }
 }

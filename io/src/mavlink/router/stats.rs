@@ -26,6 +26,11 @@ pub(super) fn sorted_links(links: &HashMap<PeerId, Link>) -> Vec<&Link> {
 
 /// The line of statistics `--stats-json` writes.
 pub(super) fn stats_line(state: &State) -> String {
+    stats_json(state).to_string()
+}
+
+/// The statistics: per link, per source, and the router's own counts.
+pub(super) fn stats_json(state: &State) -> serde_json::Value {
     let (router, links, refused) = (&state.router, &state.links, state.refused);
     let links_json: Vec<_> = sorted_links(links)
         .into_iter()
@@ -65,7 +70,7 @@ pub(super) fn stats_line(state: &State) -> String {
         line["tlog_records"] = log.records().into();
         line["tlog_dropped"] = log.dropped().into();
     }
-    line.to_string()
+    line
 }
 
 /// The statistics table, as `--stats` prints it.

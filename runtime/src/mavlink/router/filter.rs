@@ -196,4 +196,8 @@ pub struct LinkConfig<Rules = Filter> {
     /// [`LinkCounters::truncated_datagrams`](super::LinkCounters::truncated_datagrams) and the
     /// garbage bytes). For UDP peers and other links that deliver whole messages.
     pub datagrams: bool,
+    /// The link is sent every frame the router takes in, whatever its target (its outbound
+    /// filter still applies), as mavlink-router's sniffer is: for a monitor, such as a web API
+    /// that shows every system.
+    pub sniffer: bool,
 }

@@ -202,6 +202,8 @@ struct State<
     /// The links that are reached through another ([`Router::reached_through`]): routing
     /// looks for them only when a frame would go to one of them.
     reached: LinkMask,
+    /// The open links with [`LinkConfig::sniffer`] set.
+    sniffers: LinkMask,
     /// When routes were last checked for their age (they are, at most every 100 ms).
     expired_at_us: u64,
     counters: RouterCounters,
@@ -242,6 +244,7 @@ impl<
                 seen_next: 0,
                 route_ttl_us: DEFAULT_ROUTE_TTL_US,
                 reached: 0,
+                sniffers: 0,
                 expired_at_us: 0,
                 counters: RouterCounters::default(),
             },
@@ -270,6 +273,9 @@ impl<
             .require_signing
             .as_ref()
             .and_then(|key| self.state.signing_entry(key));
+        if config.sniffer {
+            self.state.sniffers |= 1 << index;
+        }
         *self.state.links.get_mut(index)? = Link {
             open: true,
             signing,
@@ -309,6 +315,7 @@ impl<
         }
         let state = &mut self.state;
         state.reached &= !(1 << index);
+        state.sniffers &= !(1 << index);
         for (i, link) in state.links.iter_mut().enumerate() {
             if link.reached_through == u8::try_from(index).ok() {
                 link.reached_through = None;
@@ -585,6 +592,7 @@ impl<
         if (candidates | (1 << from)) & self.reached != 0 {
             candidates = self.without_reached(from, candidates);
         }
+        candidates |= self.sniffers & !(1 << from);
         if candidates == 0 {
             return self.drop_frame(from, DropReason::NoRoute);
         }
