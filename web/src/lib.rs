@@ -33,7 +33,7 @@ use ferrolink_runtime::mavlink::router::LinkConfig;
 use ferrolink_runtime::mavlink::signing::{timestamp_from_unix_micros, SecretKey, Signer};
 use ferrolink_runtime::mavlink::{v2, AnyFrame, Header};
 use ferrolink_traffic::PayloadDecoder;
-use tokio::sync::{broadcast, mpsc};
+use tokio::sync::mpsc;
 
 mod api;
 mod page;
@@ -42,7 +42,7 @@ mod ws;
 
 /// Frames that may wait between the router and the API before the newest are dropped.
 const QUEUE: usize = 8192;
-/// Messages that may wait for a WebSocket client before its oldest are dropped (its own).
+/// Messages that may wait for a WebSocket client before the newest are dropped (its own).
 const CLIENT_QUEUE: usize = 1024;
 /// The largest body a POST may have.
 const MAX_BODY: usize = 64 * 1024;
@@ -72,7 +72,8 @@ pub(crate) struct Incoming {
 pub(crate) struct Shared {
     pub decoder: PayloadDecoder,
     pub store: Mutex<Store>,
-    pub events: broadcast::Sender<Arc<Incoming>>,
+    /// The WebSocket clients, each with its filter and queue.
+    pub clients: Mutex<Vec<ws::Client>>,
     /// Into the router.
     sink: link::Sink,
     peer: link::PeerId,
@@ -180,6 +181,7 @@ fn open(
     config: Config,
 ) -> io::Result<Box<dyn Send>> {
     let named = |e: io::Error| io::Error::new(e.kind(), format!("--http {}: {e}", config.addr));
+    raise_file_limit();
     let listener = std::net::TcpListener::bind(config.addr).map_err(named)?;
     listener.set_nonblocking(true).map_err(named)?;
     let addr = listener.local_addr().map_err(named)?;
@@ -188,7 +190,7 @@ fn open(
     let shared = Arc::new(Shared {
         decoder: config.decoder,
         store: Mutex::new(Store::default()),
-        events: broadcast::channel(CLIENT_QUEUE).0,
+        clients: Mutex::new(Vec::new()),
         sink: sink.clone(),
         peer,
         tx: Mutex::new(Outgoing {
@@ -261,6 +263,20 @@ fn open(
     }))
 }
 
+/// Every client holds a descriptor: a thousand of them must not meet the usual soft limit of
+/// 1024 open files, so it is raised to the hard limit.
+fn raise_file_limit() {
+    #[cfg(unix)]
+    {
+        use nix::sys::resource::{getrlimit, setrlimit, Resource};
+        if let Ok((soft, hard)) = getrlimit(Resource::RLIMIT_NOFILE) {
+            if soft < hard {
+                let _ = setrlimit(Resource::RLIMIT_NOFILE, hard, hard);
+            }
+        }
+    }
+}
+
 /// Takes the router's frames into the store and out to the WebSockets.
 async fn ingest(shared: Arc<Shared>, mut frames: mpsc::Receiver<Vec<u8>>) {
     while let Some(bytes) = frames.recv().await {
@@ -273,13 +289,6 @@ async fn ingest(shared: Arc<Shared>, mut frames: mpsc::Receiver<Vec<u8>>) {
         }
         let payload = frame.payload();
         lock(&shared.store).update(header.sysid, header.compid, id, payload, SystemTime::now());
-        if shared.events.receiver_count() > 0 {
-            let _ = shared.events.send(Arc::new(Incoming {
-                header,
-                id,
-                payload: payload.to_vec(),
-                text: std::sync::OnceLock::new(),
-            }));
-        }
+        ws::fan_out(&shared, header, id, payload);
     }
 }

@@ -3,9 +3,10 @@
 //! sends them. A client may send messages the same way as a POST; each gets `Ok(LEN)` or
 //! `Err(WHY)` back.
 //!
-//! Each client reads from the API's broadcast queue at its own pace: one that falls more than
-//! the queue behind loses its oldest messages, counted in `/info`'s `ws_dropped`, and nobody
-//! else waits for it. A close from either side ends the connection at once.
+//! Each client has a queue of its own, filled as messages come (only those its filter takes): a
+//! client that does not keep up loses the messages its full queue cannot take, counted in
+//! `/info`'s `ws_dropped` at once, and nobody else waits for it. A close from either side ends
+//! the connection at once.
 
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
@@ -14,12 +15,55 @@ use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Query, State};
 use axum::http::StatusCode;
 use axum::response::Response;
+use ferrolink_runtime::mavlink::Header;
 use regex::Regex;
 use serde_json::json;
-use tokio::sync::broadcast::error::RecvError;
+use tokio::sync::mpsc;
 
 use crate::api::{error, send};
-use crate::{Incoming, Shared};
+use crate::{lock, Incoming, Shared, CLIENT_QUEUE};
+
+/// A WebSocket client, as the fan-out sees it.
+pub struct Client {
+    filter: Regex,
+    queue: mpsc::Sender<Arc<Incoming>>,
+}
+
+/// Hands a message to every client whose filter takes it; a full queue drops it (counted), a
+/// client gone is forgotten.
+pub(crate) fn fan_out(shared: &Shared, header: Header, id: u32, payload: &[u8]) {
+    let mut clients = lock(&shared.clients);
+    if clients.is_empty() {
+        return;
+    }
+    let Some(name) = shared.decoder.message(id).map(|m| &m.name.wire) else {
+        return;
+    };
+    let mut incoming: Option<Arc<Incoming>> = None;
+    clients.retain(|client| {
+        if !client.filter.is_match(name) {
+            return !client.queue.is_closed();
+        }
+        let message = incoming
+            .get_or_insert_with(|| {
+                Arc::new(Incoming {
+                    header,
+                    id,
+                    payload: payload.to_vec(),
+                    text: std::sync::OnceLock::new(),
+                })
+            })
+            .clone();
+        match client.queue.try_send(message) {
+            Ok(()) => true,
+            Err(mpsc::error::TrySendError::Full(_)) => {
+                shared.counts.ws_dropped.fetch_add(1, Ordering::Relaxed);
+                true
+            }
+            Err(mpsc::error::TrySendError::Closed(_)) => false,
+        }
+    });
+}
 
 #[derive(serde::Deserialize)]
 pub struct Filter {
@@ -55,28 +99,19 @@ fn text(shared: &Shared, incoming: &Incoming) -> Option<String> {
 }
 
 async fn serve(shared: Arc<Shared>, filter: Regex, mut socket: WebSocket) {
-    let mut events = shared.events.subscribe();
+    let (queue, mut messages) = mpsc::channel(CLIENT_QUEUE);
+    lock(&shared.clients).push(Client { filter, queue });
     shared.counts.ws_clients.fetch_add(1, Ordering::Relaxed);
     loop {
         tokio::select! {
-            event = events.recv() => match event {
-                Ok(incoming) => {
-                    let Some(name) = shared.decoder.message(incoming.id).map(|m| &m.name.wire)
-                    else {
-                        continue;
-                    };
-                    if !filter.is_match(name) {
-                        continue;
-                    }
+            incoming = messages.recv() => match incoming {
+                Some(incoming) => {
                     let Some(text) = text(&shared, &incoming) else { continue };
                     if socket.send(Message::Text(text.into())).await.is_err() {
                         break;
                     }
                 }
-                Err(RecvError::Lagged(n)) => {
-                    shared.counts.ws_dropped.fetch_add(n, Ordering::Relaxed);
-                }
-                Err(RecvError::Closed) => break,
+                None => break,
             },
             received = socket.recv() => match received {
                 Some(Ok(Message::Text(body))) => {
@@ -94,5 +129,7 @@ async fn serve(shared: Arc<Shared>, filter: Regex, mut socket: WebSocket) {
             },
         }
     }
+    // Its queue closes with `messages`: the next fan-out forgets it.
+    drop(messages);
     shared.counts.ws_clients.fetch_sub(1, Ordering::Relaxed);
 }
