@@ -50,9 +50,14 @@ async fn subtree(State(shared): State<Arc<Shared>>, Path(path): Path<String>) ->
 }
 
 fn lookup(shared: &Shared, path: &str) -> Response {
-    let found = lock(&shared.store).lookup(&shared.decoder, path);
+    let found = lock(&shared.store).text(&shared.decoder, path);
     match found {
-        Ok(value) => pretty(StatusCode::OK, &value),
+        Ok(text) => (
+            StatusCode::OK,
+            [(header::CONTENT_TYPE, "application/json")],
+            text,
+        )
+            .into_response(),
         Err(why) => error(StatusCode::NOT_FOUND, why),
     }
 }

@@ -65,7 +65,7 @@ pub(crate) struct Incoming {
     pub id: u32,
     pub payload: Vec<u8>,
     /// Its JSON text, made once for every client that takes it.
-    pub text: std::sync::OnceLock<Option<String>>,
+    pub text: std::sync::OnceLock<Option<axum::extract::ws::Utf8Bytes>>,
 }
 
 /// What the API's tasks share.
@@ -277,18 +277,34 @@ fn raise_file_limit() {
     }
 }
 
-/// Takes the router's frames into the store and out to the WebSockets.
+/// How long the API lets the router's frames gather before it takes them in: it wakes at most
+/// this often, not once per frame, whatever the rate.
+const INGEST_TICK: std::time::Duration = std::time::Duration::from_millis(5);
+
+/// Takes the router's frames into the store and out to the WebSockets, a tick's worth at a
+/// time.
 async fn ingest(shared: Arc<Shared>, mut frames: mpsc::Receiver<Vec<u8>>) {
-    while let Some(bytes) = frames.recv().await {
-        let Ok(frame) = AnyFrame::new_checked(&bytes[..]) else {
-            continue;
-        };
-        let (header, id) = (frame.header(), frame.msg_id());
-        if shared.decoder.message(id).is_none() {
-            continue;
+    while let Some(first) = frames.recv().await {
+        tokio::time::sleep(INGEST_TICK).await;
+        let now = SystemTime::now();
+        let mut store = lock(&shared.store);
+        let mut taken = Vec::new();
+        for bytes in std::iter::once(first).chain(std::iter::from_fn(|| frames.try_recv().ok())) {
+            let Ok(frame) = AnyFrame::new_checked(&bytes[..]) else {
+                continue;
+            };
+            let (header, id) = (frame.header(), frame.msg_id());
+            if shared.decoder.message(id).is_none() {
+                continue;
+            }
+            store.update(header.sysid, header.compid, id, frame.payload(), now);
+            taken.push((header, id, bytes));
         }
-        let payload = frame.payload();
-        lock(&shared.store).update(header.sysid, header.compid, id, payload, SystemTime::now());
-        ws::fan_out(&shared, header, id, payload);
+        drop(store);
+        for (header, id, bytes) in taken {
+            if let Ok(frame) = AnyFrame::new_checked(&bytes[..]) {
+                ws::fan_out(&shared, header, id, frame.payload());
+            }
+        }
     }
 }

@@ -9,6 +9,7 @@
 use std::collections::BTreeMap;
 use std::time::SystemTime;
 
+use axum::body::Bytes;
 use ferrolink_traffic::PayloadDecoder;
 use serde_json::{json, Map, Value as Json};
 
@@ -19,6 +20,8 @@ struct Entry {
     first: SystemTime,
     last: SystemTime,
     counter: u64,
+    /// Its pretty JSON, made by the first request after an update and served to the next ones.
+    text: Option<Bytes>,
 }
 
 /// Systems → components → message ids → the latest entry.
@@ -54,6 +57,10 @@ impl Entry {
     }
 }
 
+fn pretty(json: &Json) -> Bytes {
+    serde_json::to_vec_pretty(json).unwrap_or_default().into()
+}
+
 /// Why a path names nothing.
 pub type Missing = String;
 
@@ -72,11 +79,39 @@ impl Store {
                 first: at,
                 last: at,
                 counter: 0,
+                text: None,
             });
         entry.payload.clear();
         entry.payload.extend_from_slice(payload);
         entry.last = at;
         entry.counter += 1;
+        entry.text = None;
+    }
+
+    /// [`Store::lookup`] as pretty JSON text. A message's entry
+    /// (`vehicles/S/components/C/messages/NAME`), what clients poll, is made once per update.
+    pub fn text(&mut self, decoder: &PayloadDecoder, path: &str) -> Result<Bytes, Missing> {
+        let segments: Vec<&str> = path.split('/').filter(|s| !s.is_empty()).collect();
+        if let ["vehicles", sys, "components", comp, "messages", name] = segments.as_slice() {
+            let entry = sys
+                .parse::<u8>()
+                .ok()
+                .zip(comp.parse::<u8>().ok())
+                .and_then(|(s, c)| self.systems.get_mut(&s)?.get_mut(&c))
+                .and_then(|messages| {
+                    messages
+                        .iter_mut()
+                        .find(|(id, _)| decoder.message(**id).is_some_and(|m| m.name.wire == *name))
+                });
+            if let Some((id, entry)) = entry {
+                if entry.text.is_none() {
+                    let json = entry.json(decoder, *id).ok_or("undecodable")?;
+                    entry.text = Some(pretty(&json));
+                }
+                return Ok(entry.text.clone().unwrap_or_default());
+            }
+        }
+        self.lookup(decoder, path).map(|json| pretty(&json))
     }
 
     /// The systems seen, each with its components.

@@ -11,11 +11,12 @@
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 
-use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::ws::{Message, Utf8Bytes, WebSocket, WebSocketUpgrade};
 use axum::extract::{Query, State};
 use axum::http::StatusCode;
 use axum::response::Response;
 use ferrolink_runtime::mavlink::Header;
+use futures_util::SinkExt;
 use regex::Regex;
 use serde_json::json;
 use tokio::sync::mpsc;
@@ -65,6 +66,10 @@ pub(crate) fn fan_out(shared: &Shared, header: Header, id: u32, payload: &[u8]) 
     });
 }
 
+/// How long a client's first waiting message waits for others to go out with it: a bound on
+/// the latency a WebSocket adds, and what keeps its writes (and wake-ups) few at high rates.
+const COALESCE: std::time::Duration = std::time::Duration::from_millis(20);
+
 #[derive(serde::Deserialize)]
 pub struct Filter {
     filter: Option<String>,
@@ -82,8 +87,8 @@ pub async fn upgrade(
     ws.on_upgrade(move |socket| serve(shared, filter, socket))
 }
 
-/// The message's JSON text, made by the first client that wants it.
-fn text(shared: &Shared, incoming: &Incoming) -> Option<String> {
+/// The message's JSON text, made by the first client that wants it and shared by the others.
+fn text(shared: &Shared, incoming: &Incoming) -> Option<Utf8Bytes> {
     incoming
         .text
         .get_or_init(|| {
@@ -93,7 +98,9 @@ fn text(shared: &Shared, incoming: &Incoming) -> Option<String> {
                 "header": {"component_id": h.compid, "sequence": h.seq, "system_id": h.sysid},
                 "message": message,
             });
-            serde_json::to_string_pretty(&value).ok()
+            serde_json::to_string_pretty(&value)
+                .ok()
+                .map(Utf8Bytes::from)
         })
         .clone()
 }
@@ -105,9 +112,20 @@ async fn serve(shared: Arc<Shared>, filter: Regex, mut socket: WebSocket) {
     loop {
         tokio::select! {
             incoming = messages.recv() => match incoming {
-                Some(incoming) => {
-                    let Some(text) = text(&shared, &incoming) else { continue };
-                    if socket.send(Message::Text(text.into())).await.is_err() {
+                Some(first) => {
+                    // What else comes within a moment goes out with it, in one write.
+                    tokio::time::sleep(COALESCE).await;
+                    let mut batch = vec![first];
+                    while let Ok(next) = messages.try_recv() {
+                        batch.push(next);
+                    }
+                    let mut sent = true;
+                    for incoming in &batch {
+                        if let Some(text) = text(&shared, incoming) {
+                            sent &= socket.feed(Message::Text(text)).await.is_ok();
+                        }
+                    }
+                    if !sent || socket.flush().await.is_err() {
                         break;
                     }
                 }
