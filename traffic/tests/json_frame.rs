@@ -26,3 +26,24 @@ fn json_frames_hold_their_invariants() {
         }
     }
 }
+
+#[test]
+fn the_rest_form_reads_back_what_it_writes() {
+    let inputs: &[&str] = &[
+        r#"{"type":"HEARTBEAT","mavtype":{"type":"MAV_TYPE_QUADROTOR"},"autopilot":3,"base_mode":"MAV_MODE_FLAG_SAFETY_ARMED | 0x1","custom_mode":7,"system_status":{"type":"MAV_STATE_ACTIVE"},"mavlink_version":3}"#,
+        r#"{"type":"HEARTBEAT","base_mode":{"bits":129}}"#,
+        r#"{"type":"HEARTBEAT","base_mode":"NOT_A_FLAG"}"#,
+        r#"{"type":"ATTITUDE","roll":null,"pitch":1e39,"time_boot_ms":4294967295}"#,
+        r#"{"type":"STATUSTEXT","text":"a\u0000b","severity":{"type":"MAV_SEVERITY_INFO"}}"#,
+        r#"{"type":"NOPE"}"#,
+        r#"{"type":"ATTITUDE","nope":1}"#,
+    ];
+    for input in inputs {
+        let mut data = vec![0u8];
+        data.extend_from_slice(input.as_bytes());
+        scripts::check_rest_json(&data);
+    }
+    for pick in 0..=255u8 {
+        scripts::check_rest_json(&[1, pick, 0xff, 0x80, 0, 1, 2, 3, 0xfe, 0xc3, 0x28]);
+    }
+}

@@ -27,7 +27,10 @@ fn http(port: u16, method: &str, path: &str, body: &str) -> (u16, String) {
     let mut reply = String::new();
     s.read_to_string(&mut reply).expect("read");
     let status = reply[9..12].parse().expect("a status");
-    let body = reply.split_once("\r\n\r\n").map_or("", |(_, b)| b).to_owned();
+    let body = reply
+        .split_once("\r\n\r\n")
+        .map_or("", |(_, b)| b)
+        .to_owned();
     (status, body)
 }
 
@@ -61,9 +64,17 @@ fn a_post_goes_out_signed_from_its_header_ids_and_the_api_stops_with_the_router(
         .set_read_timeout(Some(Duration::from_millis(200)))
         .expect("timeout");
     let mut out = [0u8; v2::MAX_FRAME_LEN];
-    let n = v2::encode_raw(Header::new(0, 1, 1), 0, 50, &[0, 0, 0, 0, 2, 3, 0, 4, 3], &mut out)
-        .expect("fits");
-    vehicle.send_to(&out[..n], ("127.0.0.1", udp)).expect("send");
+    let n = v2::encode_raw(
+        Header::new(0, 1, 1),
+        0,
+        50,
+        &[0, 0, 0, 0, 2, 3, 0, 4, 3],
+        &mut out,
+    )
+    .expect("fits");
+    vehicle
+        .send_to(&out[..n], ("127.0.0.1", udp))
+        .expect("send");
     thread::sleep(Duration::from_millis(200));
 
     let (status, body) = http(http_port, "GET", "/v1/mavlink/vehicles/1", "");
@@ -86,17 +97,26 @@ fn a_post_goes_out_signed_from_its_header_ids_and_the_api_stops_with_the_router(
                 break frame;
             }
         }
-        assert!(Instant::now() < deadline, "no COMMAND_LONG reached the vehicle");
+        assert!(
+            Instant::now() < deadline,
+            "no COMMAND_LONG reached the vehicle"
+        );
     };
     assert_eq!((frame.header().sysid, frame.header().compid), (200, 190));
-    assert!(frame.is_signed() && signature_matches(&key, &frame), "signed with the key");
+    assert!(
+        frame.is_signed() && signature_matches(&key, &frame),
+        "signed with the key"
+    );
 
     let (status, body) = http(http_port, "POST", "/v1/mavlink", "{\"message\": 3}");
     assert_eq!(status, 400);
     assert!(body.contains("a message is a JSON object"), "{body}");
 
     stop.store(true, Ordering::Relaxed);
-    router.join().expect("the router thread").expect("the router ran");
+    router
+        .join()
+        .expect("the router thread")
+        .expect("the router ran");
     assert!(
         TcpStream::connect(("127.0.0.1", http_port)).is_err(),
         "the API stopped with the router"
