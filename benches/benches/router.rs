@@ -21,7 +21,10 @@
 //! First, the floor: the latency of one loopback hop with no router at all, at the same rate.
 //!
 //! Then a fleet of two: two ferrolink routers in a row, joined by UDP or by Zenoh, PINGs into the
-//! first and a receiving peer on the second (the `zenoh` feature, on by default).
+//! first and a receiving peer on the second (the `zenoh` feature, on by default); and the floor
+//! their Zenoh link is judged against: a bare Zenoh publisher and subscriber (two processes,
+//! this bench run as `--bare-zenoh pub|sub`) carrying the same datagrams from the same UDP port
+//! to the same peer. The goal: the routers' CPU per frame at most 1.2 times theirs.
 //!
 //! Last, the I/O model behind the daemon, measured the same way in this process: the runtime's
 //! router over three UDP sockets, driven by a blocking reader thread per socket (what `io::link`
@@ -348,6 +351,134 @@ fn two_routers(zenoh: bool, base: u16) -> Option<Row> {
     Some(Row { max_rate, ..row })
 }
 
+/// A bare Zenoh bridge: this bench run as a publisher (UDP in) and a subscriber (UDP out).
+struct Bare {
+    children: Vec<Child>,
+}
+
+impl Drop for Bare {
+    fn drop(&mut self) {
+        for c in &mut self.children {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// `--bare-zenoh pub|sub ZENOH_PORT UDP_PORT`: the publisher reads datagrams on the UDP port and
+/// puts each on one key; the subscriber sends each sample to the peer heard on its UDP port.
+/// Runs until killed.
+fn bare_zenoh_helper(role: &str, zport: u16, udp: u16) {
+    use zenoh::Wait;
+    let mut config = zenoh::Config::default();
+    let endpoints = format!("[\"tcp/127.0.0.1:{zport}\"]");
+    config.insert_json5("mode", "\"peer\"").expect("mode");
+    let side = if role == "pub" {
+        "listen/endpoints"
+    } else {
+        "connect/endpoints"
+    };
+    config.insert_json5(side, &endpoints).expect("endpoints");
+    let session = zenoh::open(config).wait().expect("a Zenoh session");
+    let key = format!("bench{zport}/bare");
+    let socket = UdpSocket::bind(("127.0.0.1", udp)).expect("bind");
+    let mut buf = [0u8; 65536];
+    if role == "pub" {
+        let publisher = session.declare_publisher(key).wait().expect("publisher");
+        println!("ready");
+        loop {
+            if let Ok(n) = socket.recv(&mut buf) {
+                let _ = publisher.put(buf[..n].to_vec()).wait();
+            }
+        }
+    }
+    let peer: Arc<Mutex<Option<std::net::SocketAddr>>> = Arc::default();
+    let out = socket.try_clone().expect("clone");
+    let to = peer.clone();
+    let _subscriber = session
+        .declare_subscriber(key)
+        .callback(move |sample| {
+            if let Some(addr) = *to.lock().unwrap_or_else(std::sync::PoisonError::into_inner) {
+                let _ = out.send_to(&sample.payload().to_bytes(), addr);
+            }
+        })
+        .wait()
+        .expect("subscriber");
+    println!("ready");
+    loop {
+        if let Ok((_, from)) = socket.recv_from(&mut buf) {
+            *peer
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner) = Some(from);
+        }
+    }
+}
+
+/// The same load as [`two_routers`] through a bare Zenoh publisher and subscriber.
+fn bare_zenoh(base: u16) -> Option<Row> {
+    let exe = std::env::current_exe().ok()?;
+    let start = |role: &str, udp: u16| -> Option<Child> {
+        let mut child = Command::new(&exe)
+            .args([
+                "--bare-zenoh",
+                role,
+                &(base + 3).to_string(),
+                &udp.to_string(),
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::null())
+            .spawn()
+            .ok()?;
+        let mut line = String::new();
+        BufReader::new(child.stdout.take()?)
+            .read_line(&mut line)
+            .ok()?;
+        line.contains("ready").then_some(child)
+    };
+    let sub = start("sub", base + 1)?;
+    let mut bare = Bare {
+        children: vec![sub],
+    };
+    bare.children.push(start("pub", base)?);
+    let source = UdpSocket::bind("127.0.0.1:0").expect("bind");
+    source.connect(("127.0.0.1", base)).expect("connect");
+    let sink = Sink::new(base + 1, 201);
+    for _ in 0..4 {
+        let _ = source.send(&heartbeat(1));
+        thread::sleep(Duration::from_millis(500));
+    }
+    let _ = sink.take();
+    let cpu = || {
+        bare.children
+            .iter()
+            .map(|c| cpu_time(c.id()).unwrap_or_default())
+            .sum::<Duration>()
+    };
+    let before = cpu();
+    let sent = send(&source, 1, 10_000, Duration::from_secs(5));
+    thread::sleep(Duration::from_millis(500));
+    let used = cpu().saturating_sub(before);
+    let mut l = sink.take();
+    l.sort_unstable();
+    let row = Row {
+        name: "bare Zenoh (publisher and subscriber, no router)",
+        six_peers: None,
+        delivered: l.len() as f64 / sent as f64,
+        cpu_per_10k_ms: used.as_secs_f64() * 1e3 * 10_000.0 / l.len().max(1) as f64,
+        p50: percentile(&l, 0.5),
+        p99: percentile(&l, 0.99),
+        max_rate: 0.0,
+        idle_pct: 0.0,
+        p99_1k: 0,
+        delivered_50k: 0.0,
+    };
+    let window = Duration::from_secs(3);
+    send(&source, 1, MAX_OFFERED, window);
+    thread::sleep(Duration::from_millis(500));
+    let max_rate = sink.take().len() as f64 / window.as_secs_f64();
+    Some(Row { max_rate, ..row })
+}
+
 /// Six peers, one per endpoint and each a system of its own, sending PING broadcasts at a sixth
 /// of 10,000 msg/s for 5 s: the share of the copies owed to the other five that arrived.
 fn six_peers(ports: &[u16]) -> f64 {
@@ -572,12 +703,23 @@ fn main() {
     if std::env::args().any(|a| a == "--list") {
         return;
     }
+    let args: Vec<String> = std::env::args().collect();
+    if let [_, flag, role, zport, udp] = &args[..] {
+        if flag == "--bare-zenoh" {
+            if let (Ok(zport), Ok(udp)) = (zport.parse(), udp.parse()) {
+                bare_zenoh_helper(role, zport, udp);
+            }
+            return;
+        }
+    }
     println!("machine: {}", harness::machine());
     // `cargo bench -p ferrolink-bench --bench router -- fleet`: the two-router section only.
     let only_fleet = std::env::args().any(|a| a == "fleet");
     println!("three UDP endpoints on loopback; PING broadcasts from A to B and C");
-    for rate in [10_000, 1_000] {
+    let mut bare_p99 = [0u64; 2];
+    for (i, rate) in [10_000, 1_000].into_iter().enumerate() {
         let (p50, p99) = direct(rate);
+        bare_p99[i] = p99;
         println!(
             "one loopback hop without a router, {}k msg/s: latency p50 {p50} µs, p99 {p99} µs",
             rate / 1000
@@ -628,10 +770,11 @@ fn main() {
             r.idle_pct
         );
     }
-    let joined: Vec<Row> = [(false, 34700), (true, 34710)]
+    let mut joined: Vec<Row> = [(false, 34700), (true, 34710)]
         .into_iter()
         .filter_map(|(zenoh, base)| two_routers(zenoh, base))
         .collect();
+    joined.extend(bare_zenoh(34720));
     let models = [
         Model::Threads,
         Model::TokioCurrentThread,
@@ -655,6 +798,20 @@ fn main() {
                 ours.max_rate / other.max_rate.max(1.0),
                 ours.p99 as f64 / other.p99.max(1) as f64,
                 ours.idle_pct / other.idle_pct.max(1e-6)
+            );
+            // The goal: the p99 a router adds over one bare hop, measured in this run, no more
+            // than mavlink-routerd's.
+            let added = |r: &Row| {
+                (
+                    r.p99 as i64 - bare_p99[0] as i64,
+                    r.p99_1k as i64 - bare_p99[1] as i64,
+                )
+            };
+            let (ours_10k, ours_1k) = added(ours);
+            let (theirs_10k, theirs_1k) = added(other);
+            println!(
+                "p99 added over one bare hop: at 10k msg/s ferrolink {ours_10k} µs, {} {theirs_10k} µs; at 1k msg/s {ours_1k} µs against {theirs_1k} µs",
+                other.name
             );
         }
     }
@@ -694,12 +851,18 @@ fn main() {
             r.max_rate
         );
     }
-    if let [udp, zenoh] = &joined[..] {
+    if let [udp, zenoh, ..] = &joined[..] {
         println!(
             "Zenoh over UDP: added latency p50 {} µs, p99 {} µs; most forwarded {:.2}x",
             zenoh.p50 as i64 - udp.p50 as i64,
             zenoh.p99 as i64 - udp.p99 as i64,
             zenoh.max_rate / udp.max_rate.max(1.0)
+        );
+    }
+    if let [_, zenoh, bare] = &joined[..] {
+        println!(
+            "the routers' Zenoh link over bare Zenoh: CPU per frame {:.2}x (goal: at most 1.20x)",
+            zenoh.cpu_per_10k_ms / bare.cpu_per_10k_ms.max(1e-9)
         );
     }
 }
