@@ -1,6 +1,7 @@
 //! The router on a broadcast address and a multicast group, over loopback: `udpbcast` sends
 //! with `SO_BROADCAST` and takes replies from any host; `udpmcast` joins its group, drops its
-//! own frames coming back, and reaches every host once, a frame for one system included.
+//! own frames coming back, and reaches every host once, a frame for one system included; and
+//! `udpout ?replies=any` takes a reply from another address than its target.
 
 mod daemon;
 
@@ -202,4 +203,34 @@ fn udpmcast_reaches_each_member_once_and_never_hears_itself() {
     assert_eq!(frames(&got)[0], command_long(255, 2));
     assert!(drain(&gcs, WINDOW).is_empty(), "nothing echoed");
     running.stop();
+}
+
+#[test]
+fn udpout_takes_replies_from_any_address_when_asked() {
+    let gcs_port = free_port();
+    let vehicle = socket("127.0.0.1:0");
+    let to = vehicle.local_addr().expect("address").port();
+    // The vehicle listens on one socket and answers from another.
+    let answers = socket("127.0.0.1:0");
+    let run = |endpoint: Endpoint| {
+        let running = router(vec![
+            Endpoint::UdpIn("127.0.0.1".into(), gcs_port),
+            endpoint,
+        ]);
+        let gcs = socket("127.0.0.1:0");
+        gcs.send_to(&heartbeat(255), ("127.0.0.1", gcs_port))
+            .expect("send");
+        let got = drain(&vehicle, WINDOW);
+        assert_eq!(senders(&got), [255]);
+        answers.send_to(&heartbeat(1), got[0].1).expect("send");
+        let heard = senders(&drain(&gcs, WINDOW));
+        running.stop();
+        heard
+    };
+    assert_eq!(
+        run(Endpoint::UdpOut("127.0.0.1".into(), to)),
+        Vec::<u8>::new(),
+        "a plain udpout reads only its target"
+    );
+    assert_eq!(run(Endpoint::UdpOutAny("127.0.0.1".into(), to)), [1]);
 }

@@ -130,6 +130,7 @@ async fn info(State(shared): State<Arc<Shared>>) -> Response {
             "posted": c.posted.load(Ordering::Relaxed),
             "ws_clients": c.ws_clients.load(Ordering::Relaxed),
             "ws_dropped": c.ws_dropped.load(Ordering::Relaxed),
+            "untracked": lock(&shared.store).refused,
         },
     });
     (

@@ -24,10 +24,18 @@ struct Entry {
     text: Option<Bytes>,
 }
 
+/// The most entries the store keeps: a vehicle sends a few hundred message types at most, and a
+/// peer spoofing every system, component and message id must not take the memory (65,536
+/// entries of a few hundred bytes: about 20 MB at worst).
+pub const MAX_ENTRIES: usize = 65_536;
+
 /// Systems → components → message ids → the latest entry.
 #[derive(Debug, Default)]
 pub struct Store {
     systems: BTreeMap<u8, BTreeMap<u8, BTreeMap<u32, Entry>>>,
+    entries: usize,
+    /// Messages not kept because the store was full (their type was new there).
+    pub refused: u64,
 }
 
 fn time(t: SystemTime) -> String {
@@ -65,8 +73,22 @@ fn pretty(json: &Json) -> Bytes {
 pub type Missing = String;
 
 impl Store {
-    /// Takes message `id` from `(sysid, compid)`, received at `at`.
+    /// Takes message `id` from `(sysid, compid)`, received at `at`. A type new to a component
+    /// is not kept once the store holds [`MAX_ENTRIES`] (counted in `refused`).
     pub fn update(&mut self, sysid: u8, compid: u8, id: u32, payload: &[u8], at: SystemTime) {
+        let full = self.entries >= MAX_ENTRIES;
+        let known = self
+            .systems
+            .get(&sysid)
+            .and_then(|c| c.get(&compid))
+            .is_some_and(|m| m.contains_key(&id));
+        if full && !known {
+            self.refused += 1;
+            return;
+        }
+        if !known {
+            self.entries += 1;
+        }
         let entry = self
             .systems
             .entry(sysid)
@@ -251,6 +273,12 @@ mod tests {
         );
         let tree = store.lookup(&d, "").unwrap();
         assert_eq!(tree["vehicles"]["1"]["components"]["1"]["id"], json!(1));
+        // A full store keeps what it has and refuses new entries, counted.
+        store.entries = MAX_ENTRIES;
+        store.update(9, 9, 0, &[], t0);
+        store.update(1, 1, 30, &attitude, t0 + Duration::from_secs(2));
+        assert_eq!(store.refused, 1);
+        assert!(store.lookup(&d, "vehicles/9").is_err());
         for missing in [
             "vehicles/2",
             "vehicles/1/components/9",
