@@ -1,18 +1,23 @@
 //! The MAVLink router daemon: the runtime's [`Router`] between endpoints on a PC.
 //!
 //! Every peer of every endpoint (each UDP sender on a `udpin` port, each client of a `tcpin`
-//! server, the one peer of `udpout`, `tcpout` and `serial`) is its own link, with its own parser
+//! server, the one peer of `udpout`, `tcpout` and `serial`, the broadcast address or group of a
+//! `udpbcast` or `udpmcast` and each host heard there) is its own link, with its own parser
 //! and counters. Each endpoint has reader threads that route what they read, under one lock;
 //! what goes to a TCP, serial or pty peer waits in that peer's bounded output queue, written by
 //! a thread of its own. `ferrolink mavlink router` is a thin wrapper around [`run`].
 //!
-//! Admission: a `udpin` sender gets a link slot with its first datagram that holds a frame whose
-//! checksum checks (junk never holds a slot); every other peer (a TCP client, a device, the
-//! address of a `udpout`) gets one when it appears. A peer refused for want of a slot is
+//! Admission: a `udpin` sender, and a host heard on a broadcast address or group, gets a link
+//! slot with its first datagram that holds a frame whose checksum checks (junk never holds a
+//! slot); every other peer (a TCP client, a device, the address of a `udpout`, the broadcast
+//! address or group itself) gets one when it appears. A host heard on a broadcast address or
+//! group is reached through that address's link (`Router::reached_through`): it never gets a
+//! frame twice. A peer refused for want of a slot is
 //! offered one again at its next read; a refused TCP client is closed at once.
 //!
 //! Endpoints that are not opened from a [`link`] URI are [`Attached`]: they report to a
-//! [`link::Sink`] like the link layer does (the Zenoh endpoint of `ferrolink-zenoh` is one).
+//! [`link::Sink`] like the link layer does (the Zenoh endpoint of `ferrolink-zenoh` is one, the
+//! web API of `ferrolink-web`, a sniffer that is sent every frame, another).
 
 use std::collections::HashMap;
 use std::fs::File;
