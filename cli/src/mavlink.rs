@@ -76,7 +76,8 @@ pub enum Command {
         /// `main.conf` (anything else). Flags add to it and take precedence.
         #[arg(long, value_name = "FILE")]
         config: Option<PathBuf>,
-        /// udpin://HOST:PORT | udpout://HOST:PORT | tcpin://HOST:PORT | tcpout://HOST:PORT |
+        /// udpin://HOST:PORT | udpout://HOST:PORT[?replies=any] | udpbcast://ADDR:PORT |
+        /// udpmcast://GROUP:PORT[?iface=NAME] | tcpin://HOST:PORT | tcpout://HOST:PORT |
         /// serial://PATH[:BAUD] | pty://NAME (a pseudo-terminal linked at NAME) |
         /// zenoh://?mode=peer&listen=tcp/HOST:PORT[&connect=tcp/HOST:PORT][&encoding=raw|json][&prefix=ferrolink]
         #[arg(required_unless_present = "config", value_name = "ENDPOINT")]
